@@ -1,0 +1,55 @@
+# Two commands do all the set-up on a fresh machine:
+#   make run   - create .venv from the package index, install, run the node on the default scene
+#   make test  - create .venv from the package index, install, run the whole test suite
+# Everything is pinned; nothing needs to be installed by hand.
+
+PYTHON ?= python3
+VENV   ?= .venv
+PY     := $(VENV)/bin/python
+SCENE  ?= mooring_line
+ARGS   ?=
+
+ROS_PKGS := ros-jazzy-rclpy==7.1.6 ros-jazzy-common-interfaces==5.3.6 \
+            ros-jazzy-rmw-fastrtps-cpp==8.4.3
+RUN_PKGS := numpy==2.4.6 scipy==1.17.1 pyyaml==6.0.3 mcap==1.6.0 mcap-ros2-support==0.6.0 \
+            numba==0.68.1 matplotlib==3.11.2
+TEST_PKGS := pytest==9.2.0 sympy==1.14.0 rosbags==0.11.9 ruff==0.17.6
+
+# The ROS wheels install their libraries and message definitions into the venv prefix.
+export AMENT_PREFIX_PATH := $(abspath $(VENV))
+export RMW_IMPLEMENTATION := rmw_fastrtps_cpp
+export PYTHONUNBUFFERED := 1
+
+DEPS_STAMP := $(VENV)/.deps-installed
+PKG_STAMP  := $(VENV)/.pkg-installed
+SOURCES    := setup.py setup.cfg package.xml $(wildcard cable_sim/*.py config/*.yaml msg_configs/*)
+
+.PHONY: run test lint bench figures clean venv
+
+venv: $(PKG_STAMP)
+
+$(DEPS_STAMP):
+	$(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install -q --upgrade pip
+	$(PY) -m pip install -q $(ROS_PKGS) $(RUN_PKGS) $(TEST_PKGS)
+	touch $@
+
+$(PKG_STAMP): $(DEPS_STAMP) $(SOURCES)
+	$(PY) -m pip install -q --no-deps --force-reinstall .
+	touch $@
+
+run: $(PKG_STAMP)
+	$(VENV)/bin/cable_sim_node --ros-args --params-file config/$(SCENE).yaml $(ARGS)
+
+test: $(PKG_STAMP)
+	$(VENV)/bin/ruff check cable_sim test
+	$(PY) -m pytest -q test
+
+lint: $(PKG_STAMP)
+	$(VENV)/bin/ruff check cable_sim test
+
+bench: $(PKG_STAMP)
+	$(VENV)/bin/cable_sim_bench $(ARGS)
+
+clean:
+	rm -rf $(VENV) build *.egg-info

@@ -1,0 +1,35 @@
+"""ament_python package setup for cable_sim (also pip-installable into a plain venv)."""
+
+from glob import glob
+
+from setuptools import find_packages, setup
+
+PACKAGE = "cable_sim"
+
+setup(
+    name=PACKAGE,
+    version="0.1.0",
+    packages=find_packages(exclude=["test"]),
+    data_files=[
+        ("share/ament_index/resource_index/packages", [f"resource/{PACKAGE}"]),
+        (f"share/{PACKAGE}", ["package.xml"]),
+        (f"share/{PACKAGE}/config", glob("config/*.yaml")),
+        (f"share/{PACKAGE}/msg_configs", glob("msg_configs/*")),
+    ],
+    install_requires=["setuptools", "numpy", "scipy", "pyyaml"],
+    extras_require={"bench": ["mujoco"]},
+    zip_safe=True,
+    maintainer="cable_sim developers",
+    maintainer_email="dev@cable-sim.local",
+    description="Real-time n-link submerged cable simulator (ROS 2 Jazzy)",
+    license="Apache-2.0",
+    python_requires=">=3.11",
+    tests_require=["pytest"],
+    entry_points={
+        "console_scripts": [
+            "cable_sim_node = cable_sim.node:main",
+            "cable_sim_replay = cable_sim.replay:main",
+            "cable_sim_bench = cable_sim.bench:main",
+        ],
+    },
+)
