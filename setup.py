@@ -24,7 +24,6 @@ setup(
     description="Real-time n-link submerged cable simulator (ROS 2 Jazzy)",
     license="Apache-2.0",
     python_requires=">=3.11",
-    tests_require=["pytest"],
     entry_points={
         "console_scripts": [
             "cable_sim_node = cable_sim.node:main",

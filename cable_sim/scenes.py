@@ -151,7 +151,9 @@ class Scene:
         """The model bound to the scene's kernel and built-in inputs."""
         return CableSystem(model or self.model(), self.input_function(), kernel or self.sim["kernel"])
 
-    def integrator(self, system: CableSystem, name: str | None = None, step: float | None = None) -> Integrator:
+    def integrator(
+        self, system: CableSystem, name: str | None = None, step: float | None = None
+    ) -> Integrator:
         """The scene's integrator (or another by name) on ``system``."""
         return make_integrator(name or self.sim["integrator"], system, step or float(self.sim["step"]))
 
