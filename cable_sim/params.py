@@ -210,10 +210,16 @@ class CableParams:
             "platform_damper", "wave_coupling",
         ):
             set_(name, _flag(name, getattr(self, name)))
-        if self.end_condition == "free" and not self.heave_locked and not self.platform_spring:
-            # Without a heave spring the free-end platform has no equilibrium; allowed, but the
-            # static solver will refuse it.  Nothing to validate here.
-            pass
+        if self.end_condition == "anchored":
+            free_dofs = self.n_links + (0 if self.heave_locked else 1) - 2
+            if free_dofs < 1:
+                raise ParameterError(
+                    "n_links", self.n_links,
+                    "an anchored line needs at least one free degree of freedom: n_links >= "
+                    + ("3 with heave_locked" if self.heave_locked else "2"),
+                )
+        if self.link_lengths is not None:
+            object.__setattr__(self, "total_length", float(sum(self.link_lengths)))
         set_("_validated", True)
 
     def lengths(self) -> np.ndarray:
