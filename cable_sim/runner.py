@@ -106,12 +106,18 @@ class Simulation:
     n_links : int, optional
         Simulate the scene at another resolution.
 
+    When the scene sets ``position_tolerance`` and ``tension_tolerance`` (> 0) and no override
+    is given, n, integrator and step are chosen by :func:`cable_sim.autoselect.choose`; the
+    choice and its reason are kept in :attr:`choice`.
+
     Attributes
     ----------
     k : int
         Number of steps taken; ``t = k * h``.
     y : ndarray
         Current state [q, qd].
+    choice : cable_sim.autoselect.Choice or None
+        The automatic choice, when the scene asked for a tolerance.
     """
 
     def __init__(
@@ -122,6 +128,17 @@ class Simulation:
         step: float | None = None,
         n_links: int | None = None,
     ) -> None:
+        self.choice = None
+        tol_pos = float(scene.sim.get("position_tolerance", 0.0))
+        tol_ten = float(scene.sim.get("tension_tolerance", 0.0))
+        if n_links is None and integrator is None and step is None and tol_pos > 0 and tol_ten > 0:
+            from .autoselect import choose
+
+            self.choice = choose(scene, tol_pos, tol_ten,
+                                 horizon=float(scene.sim.get("tolerance_horizon", 10.0)),
+                                 kernel=kernel or scene.sim["kernel"])
+            n_links, integrator, step = (self.choice.n_links, self.choice.integrator,
+                                         self.choice.step)
         if n_links is not None and n_links != scene.params.n_links:
             scene = scene.with_links(n_links)
         self.scene = scene

@@ -49,6 +49,11 @@ SIM_DEFAULTS: dict[str, Any] = {
     "initial_heave": 0.0,
     "heave_force_source": "none",
     "wave_source": "none",
+    # "model only what a scene needs": when both are > 0, n, integrator and step are chosen
+    # by cable_sim.autoselect to meet them (position [m], tension relative to its peak).
+    "position_tolerance": 0.0,
+    "tension_tolerance": 0.0,
+    "tolerance_horizon": 10.0,
 }
 
 
@@ -158,8 +163,20 @@ class Scene:
         return make_integrator(name or self.sim["integrator"], system, step or float(self.sim["step"]))
 
     def with_links(self, n_links: int) -> Scene:
-        """The same scene at another resolution (physical quantities per length held fixed)."""
-        return Scene(self.params.replace(n_links=n_links), dict(self.sim), dict(self.extra),
+        """The same scene at another resolution (physical quantities per length held fixed).
+
+        Per-joint constants (paper mode) are first converted to the equivalent bending
+        stiffness and damping, EI = k_i l and c_i l at the scene's own (uniform) link length, so
+        the cable's physics does not change with n (MODEL.md, "Resolution independence").
+        """
+        p = self.params
+        if n_links == p.n_links:
+            return self
+        if p.stiffness_mode == "per_joint":
+            l0 = float(p.lengths().mean())
+            p = p.replace(stiffness_mode="bending", bending_stiffness=p.joint_stiffness * l0,
+                          bending_damping=p.joint_damping * l0)
+        return Scene(p.replace(n_links=n_links), dict(self.sim), dict(self.extra),
                      dict(self.source))
 
 
