@@ -190,25 +190,41 @@ def type_name_of(msg: Any) -> str:
 
 
 # --------------------------------------------------------------------------------------------
-# Exact CDR length
+# Exact CDR bytes
 # --------------------------------------------------------------------------------------------
 # rclpy.serialization.serialize_message (rmw_fastrtps_cpp, Jazzy) returns a buffer of the
-# *estimated* serialised size, which overestimates empty sequences of 8-byte values: a JointState
-# with empty velocity/effort comes back 8 bytes longer than the CDR data (the tail is
-# uninitialised memory). What goes on the wire is the exact length. The recorder cuts the buffer
-# to the exact length computed below from the message object, so readers that check the size
-# (rosbags) accept it and the recorded bytes are those a subscriber receives.
+# *estimated* serialised size, which overestimates empty sequences of 8-byte values (a JointState
+# with empty velocity/effort comes back 8 bytes longer than its CDR data), and it leaves the
+# alignment padding uninitialised (stale bytes from an earlier message), whereas what a
+# subscriber receives is exactly as long as the CDR data, padding zeroed. :func:`serialize` walks
+# the message once (sequences of primitives and of fixed-layout structures such as
+# geometry_msgs/Point in one step each), cuts the buffer to the exact length and zeroes the
+# padding, so the recorded bytes are the bytes on the wire (checked against a raw subscription in
+# test/test_recorder.py) and are deterministic.
 
 _BASIC_SIZES = {
     "boolean": 1, "octet": 1, "char": 1, "int8": 1, "uint8": 1, "int16": 2, "uint16": 2,
     "wchar": 2, "int32": 4, "uint32": 4, "float": 4, "int64": 8, "uint64": 8, "double": 8,
     "long double": 16,
 }
-_PLANS: dict[type, list[tuple[str, Any]]] = {}
+# Field kinds of a compiled plan.
+(_K_BASIC, _K_STR, _K_WSTR, _K_MSG, _K_FIXED, _K_ARR_BASIC, _K_ARR_STR, _K_ARR_FIXED,
+ _K_ARR_MSG) = range(9)
+_PLANS: dict[type, list[tuple[str, int, bool, Any]]] = {}
 
 
-def _align(pos: int, a: int) -> int:
-    return pos + (-pos % min(a, 8))
+class _UnsupportedLayout(TypeError):
+    """A field whose CDR layout the walk does not model (wstring): keep rclpy's bytes as they are."""
+
+_FIXED: dict[type, tuple[int, int] | None] = {}
+
+
+def _align(pos: int, a: int, pads: list[int] | None) -> int:
+    new = pos + (-pos % min(a, 8))
+    if pads is not None and new > pos:
+        pads.append(pos)
+        pads.append(new)
+    return new
 
 
 def _msg_class(t: Any) -> type:
@@ -226,40 +242,40 @@ def _plan(cls: type) -> list[tuple[str, Any]]:
     return plan
 
 
-def _size_of(t: Any, value: Any, pos: int) -> int:
+def _size_of(t: Any, value: Any, pos: int, pads: list[int] | None) -> int:
     from rosidl_parser import definition as d
 
     if isinstance(t, d.BasicType):
         n = _BASIC_SIZES[t.typename]
-        return _align(pos, n) + n
+        return _align(pos, n, pads) + n
     if isinstance(t, d.AbstractString):
-        pos = _align(pos, 4) + 4
+        pos = _align(pos, 4, pads) + 4
         if isinstance(t, d.AbstractWString):
             return pos + 4 * (len(value) + 1)
         return pos + len(value.encode("utf-8")) + 1
     if isinstance(t, d.NamespacedType):
-        return _cdr_end(value, pos)
+        return _cdr_end(value, pos, pads)
     if isinstance(t, d.AbstractNestedType):
         if isinstance(t, d.AbstractSequence):
-            pos = _align(pos, 4) + 4
+            pos = _align(pos, 4, pads) + 4
         vt = t.value_type
         if isinstance(vt, d.BasicType):
             if len(value) == 0:
                 return pos
             n = _BASIC_SIZES[vt.typename]
-            return _align(pos, n) + n * len(value)
+            return _align(pos, n, pads) + n * len(value)
         for v in value:
-            pos = _size_of(vt, v, pos)
+            pos = _size_of(vt, v, pos, pads)
         return pos
     raise TypeError(f"unsupported field type {t!r}")
 
 
-def _cdr_end(msg: Any, pos: int = 0) -> int:
+def _cdr_end(msg: Any, pos: int = 0, pads: list[int] | None = None) -> int:
     plan = _plan(type(msg))
     if not plan:  # empty structure: one dummy uint8
         return pos + 1
     for name, t in plan:
-        pos = _size_of(t, getattr(msg, name), pos)
+        pos = _size_of(t, getattr(msg, name), pos, pads)
     return pos
 
 
@@ -269,12 +285,25 @@ def cdr_length(msg: Any) -> int:
 
 
 def serialize(msg: Any) -> bytes:
-    """CDR bytes of ``msg`` as sent on the wire: ``serialize_message(msg)`` cut to its exact length."""
+    """CDR bytes of ``msg`` as sent on the wire, deterministic.
+
+    ``serialize_message(msg)`` cut to its exact length, with the alignment padding (which rclpy
+    leaves uninitialised) set to zero, so the same message always gives the same bytes.
+    """
     from rclpy.serialization import serialize_message
 
     data = serialize_message(msg)
-    n = cdr_length(msg)
-    return data[:n] if n < len(data) else data
+    pads: list[int] = []
+    n = 4 + _cdr_end(msg, 0, pads)
+    if n > len(data):  # cannot happen for rmw_fastrtps; keep rclpy's bytes untouched
+        return data
+    if not pads:
+        return data[:n] if n < len(data) else data
+    buf = bytearray(data[:n])
+    for i in range(0, len(pads), 2):
+        a, b = pads[i] + 4, pads[i + 1] + 4
+        buf[a:b] = bytes(b - a)
+    return bytes(buf)
 
 
 # --------------------------------------------------------------------------------------------
