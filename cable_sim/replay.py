@@ -799,7 +799,7 @@ def record_headless(
     joint_state_rate: float = 50.0, marker_rate: float = 10.0, tension_rate: float = 50.0,
     diagnostics_rate: float = 1.0, inputs: Iterable[tuple[float, str, float]] = (),
     frame_id: str = "world", namespace: str = "", flush_period: float = 1.0,
-    progress: Progress | None = None,
+    chunk_size: int = 1 << 20, progress: Progress | None = None,
 ) -> dict[str, Any]:
     """Simulate ``scene`` for ``duration`` s without ROS and record what the node would publish.
 
@@ -843,7 +843,7 @@ def record_headless(
             raise ValueError(f"input topic {name!r}: allowed 'heave_force', 'wave_elevation'")
         sched.setdefault(int(round(t_in / h)), []).append((name, float(value)))
     published: dict[str, int] = {}
-    rec = RunRecorder(path, meta, flush_period=flush_period)
+    rec = RunRecorder(path, meta, flush_period=flush_period, chunk_size=chunk_size)
     t0 = time.perf_counter()
     last = time.monotonic()
 
