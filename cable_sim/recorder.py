@@ -197,26 +197,15 @@ def type_name_of(msg: Any) -> str:
 # with empty velocity/effort comes back 8 bytes longer than its CDR data), and it leaves the
 # alignment padding uninitialised (stale bytes from an earlier message), whereas what a
 # subscriber receives is exactly as long as the CDR data, padding zeroed. :func:`serialize` walks
-# the message once (sequences of primitives and of fixed-layout structures such as
-# geometry_msgs/Point in one step each), cuts the buffer to the exact length and zeroes the
-# padding, so the recorded bytes are the bytes on the wire (checked against a raw subscription in
-# test/test_recorder.py) and are deterministic.
+# the message, cuts the buffer to the exact length and zeroes the padding, so the recorded bytes
+# are deterministic and equal to the bytes a subscriber receives.
 
 _BASIC_SIZES = {
     "boolean": 1, "octet": 1, "char": 1, "int8": 1, "uint8": 1, "int16": 2, "uint16": 2,
     "wchar": 2, "int32": 4, "uint32": 4, "float": 4, "int64": 8, "uint64": 8, "double": 8,
     "long double": 16,
 }
-# Field kinds of a compiled plan.
-(_K_BASIC, _K_STR, _K_WSTR, _K_MSG, _K_FIXED, _K_ARR_BASIC, _K_ARR_STR, _K_ARR_FIXED,
- _K_ARR_MSG) = range(9)
-_PLANS: dict[type, list[tuple[str, int, bool, Any]]] = {}
-
-
-class _UnsupportedLayout(TypeError):
-    """A field whose CDR layout the walk does not model (wstring): keep rclpy's bytes as they are."""
-
-_FIXED: dict[type, tuple[int, int] | None] = {}
+_PLANS: dict[type, list[tuple[str, Any]]] = {}
 
 
 def _align(pos: int, a: int, pads: list[int] | None) -> int:
