@@ -205,7 +205,18 @@ _BASIC_SIZES = {
     "wchar": 2, "int32": 4, "uint32": 4, "float": 4, "int64": 8, "uint64": 8, "double": 8,
     "long double": 16,
 }
-_PLANS: dict[type, list[tuple[str, Any]]] = {}
+# Field kinds of a compiled plan.
+(_K_BASIC, _K_STR, _K_MSG, _K_FIXED, _K_SEQ_BASIC, _K_ARR_BASIC, _K_SEQ_STR, _K_ARR_STR,
+ _K_SEQ_FIXED, _K_ARR_FIXED, _K_SEQ_MSG, _K_ARR_MSG) = range(12)
+_PLANS: dict[type, list[tuple[str, int, Any]]] = {}
+#: (class, start offset mod 8) -> (size, padding ranges relative to the start) of fixed layouts.
+_FIXED_LAYOUTS: dict[tuple[type, int], tuple[int, tuple[int, ...]]] = {}
+_IS_FIXED: dict[type, bool] = {}
+_ZEROS = bytes(8)
+
+
+class _UnsupportedLayout(TypeError):
+    """A field type the walk does not model (wstring): rclpy's bytes are kept as they are."""
 
 
 def _align(pos: int, a: int, pads: list[int] | None) -> int:
@@ -223,48 +234,116 @@ def _msg_class(t: Any) -> type:
     return getattr(mod, t.name)
 
 
-def _plan(cls: type) -> list[tuple[str, Any]]:
+def _plan(cls: type) -> list[tuple[str, int, Any]]:
+    """Compile the fields of a message class into (attribute, kind, argument) triples."""
     plan = _PLANS.get(cls)
-    if plan is None:
-        names = list(cls.get_fields_and_field_types().keys())
-        plan = _PLANS[cls] = list(zip(names, cls.SLOT_TYPES, strict=True))
+    if plan is not None:
+        return plan
+    from rosidl_parser import definition as d
+
+    plan = []
+    names = list(cls.get_fields_and_field_types().keys())
+    for name, t in zip(names, cls.SLOT_TYPES, strict=True):
+        if isinstance(t, d.BasicType):
+            plan.append((name, _K_BASIC, _BASIC_SIZES[t.typename]))
+        elif isinstance(t, d.AbstractWString):
+            raise _UnsupportedLayout(f"{cls.__name__}.{name}: wstring")
+        elif isinstance(t, d.AbstractString):
+            plan.append((name, _K_STR, None))
+        elif isinstance(t, d.NamespacedType):
+            sub = _msg_class(t)
+            plan.append((name, _K_FIXED if _fixed(sub) else _K_MSG, sub))
+        elif isinstance(t, d.AbstractNestedType):
+            seq = isinstance(t, d.AbstractSequence)
+            vt = t.value_type
+            if isinstance(vt, d.BasicType):
+                plan.append((name, _K_SEQ_BASIC if seq else _K_ARR_BASIC, _BASIC_SIZES[vt.typename]))
+            elif isinstance(vt, d.AbstractWString):
+                raise _UnsupportedLayout(f"{cls.__name__}.{name}: wstring")
+            elif isinstance(vt, d.AbstractString):
+                plan.append((name, _K_SEQ_STR if seq else _K_ARR_STR, None))
+            elif isinstance(vt, d.NamespacedType):
+                sub = _msg_class(vt)
+                if _fixed(sub):
+                    plan.append((name, _K_SEQ_FIXED if seq else _K_ARR_FIXED, sub))
+                else:
+                    plan.append((name, _K_SEQ_MSG if seq else _K_ARR_MSG, sub))
+            else:
+                raise _UnsupportedLayout(f"{cls.__name__}.{name}: {vt!r}")
+        else:
+            raise _UnsupportedLayout(f"{cls.__name__}.{name}: {t!r}")
+    _PLANS[cls] = plan
     return plan
 
 
-def _size_of(t: Any, value: Any, pos: int, pads: list[int] | None) -> int:
-    from rosidl_parser import definition as d
+def _fixed(cls: type) -> bool:
+    """True when every instance of ``cls`` has the same CDR layout (no strings, no sequences)."""
+    f = _IS_FIXED.get(cls)
+    if f is None:
+        f = _IS_FIXED[cls] = all(k in (_K_BASIC, _K_ARR_BASIC, _K_FIXED, _K_ARR_FIXED)
+                                 for _, k, _ in _plan(cls))
+    return f
 
-    if isinstance(t, d.BasicType):
-        n = _BASIC_SIZES[t.typename]
-        return _align(pos, n, pads) + n
-    if isinstance(t, d.AbstractString):
-        pos = _align(pos, 4, pads) + 4
-        if isinstance(t, d.AbstractWString):
-            return pos + 4 * (len(value) + 1)
-        return pos + len(value.encode("utf-8")) + 1
-    if isinstance(t, d.NamespacedType):
-        return _cdr_end(value, pos, pads)
-    if isinstance(t, d.AbstractNestedType):
-        if isinstance(t, d.AbstractSequence):
-            pos = _align(pos, 4, pads) + 4
-        vt = t.value_type
-        if isinstance(vt, d.BasicType):
-            if len(value) == 0:
-                return pos
-            n = _BASIC_SIZES[vt.typename]
-            return _align(pos, n, pads) + n * len(value)
-        for v in value:
-            pos = _size_of(vt, v, pos, pads)
-        return pos
-    raise TypeError(f"unsupported field type {t!r}")
+
+def _fixed_layout(cls: type, phase: int) -> tuple[int, tuple[int, ...]]:
+    key = (cls, phase)
+    lay = _FIXED_LAYOUTS.get(key)
+    if lay is None:
+        pads: list[int] = []
+        end = _cdr_end(cls(), phase, pads)
+        lay = _FIXED_LAYOUTS[key] = (end - phase, tuple(p - phase for p in pads))
+    return lay
+
+
+def _put_fixed(cls: type, pos: int, pads: list[int] | None) -> int:
+    size, rel = _fixed_layout(cls, pos % 8)
+    if pads is not None and rel:
+        pads.extend(pos + r for r in rel)
+    return pos + size
 
 
 def _cdr_end(msg: Any, pos: int = 0, pads: list[int] | None = None) -> int:
+    """End offset (after the 4-byte encapsulation header) of ``msg`` serialised from ``pos``."""
     plan = _plan(type(msg))
     if not plan:  # empty structure: one dummy uint8
         return pos + 1
-    for name, t in plan:
-        pos = _size_of(t, getattr(msg, name), pos, pads)
+    for name, kind, arg in plan:
+        v = getattr(msg, name)
+        if kind == _K_BASIC:
+            pos = _align(pos, arg, pads) + arg
+        elif kind == _K_STR:
+            pos = _align(pos, 4, pads) + 5 + (len(v) if v.isascii() else len(v.encode("utf-8")))
+        elif kind == _K_FIXED:
+            pos = _put_fixed(arg, pos, pads)
+        elif kind == _K_MSG:
+            pos = _cdr_end(v, pos, pads)
+        else:
+            if kind in (_K_SEQ_BASIC, _K_SEQ_STR, _K_SEQ_FIXED, _K_SEQ_MSG):
+                pos = _align(pos, 4, pads) + 4
+            n = len(v)
+            if n == 0:
+                continue
+            if kind in (_K_SEQ_BASIC, _K_ARR_BASIC):
+                pos = _align(pos, arg, pads) + arg * n
+            elif kind in (_K_SEQ_STR, _K_ARR_STR):
+                for x in v:
+                    r = -pos % 4
+                    if r and pads is not None:
+                        pads += (pos, pos + r)
+                    pos += r + 5 + (len(x) if x.isascii() else len(x.encode("utf-8")))
+            elif kind in (_K_SEQ_FIXED, _K_ARR_FIXED):
+                size, rel = _fixed_layout(arg, pos % 8)
+                if (pos + size) % 8 == pos % 8:  # every element has the same layout
+                    if pads is not None and rel:
+                        for i in range(n):
+                            pads.extend(pos + i * size + r for r in rel)
+                    pos += n * size
+                else:
+                    for _ in range(n):
+                        pos = _put_fixed(arg, pos, pads)
+            else:
+                for x in v:
+                    pos = _cdr_end(x, pos, pads)
     return pos
 
 
@@ -277,21 +356,25 @@ def serialize(msg: Any) -> bytes:
     """CDR bytes of ``msg`` as sent on the wire, deterministic.
 
     ``serialize_message(msg)`` cut to its exact length, with the alignment padding (which rclpy
-    leaves uninitialised) set to zero, so the same message always gives the same bytes.
+    leaves uninitialised) set to zero, so the same message always gives the same bytes. Messages
+    with wstring fields are returned as rclpy gives them.
     """
     from rclpy.serialization import serialize_message
 
     data = serialize_message(msg)
     pads: list[int] = []
-    n = 4 + _cdr_end(msg, 0, pads)
+    try:
+        n = 4 + _cdr_end(msg, 0, pads)
+    except _UnsupportedLayout:
+        return data
     if n > len(data):  # cannot happen for rmw_fastrtps; keep rclpy's bytes untouched
         return data
     if not pads:
         return data[:n] if n < len(data) else data
     buf = bytearray(data[:n])
-    for i in range(0, len(pads), 2):
-        a, b = pads[i] + 4, pads[i + 1] + 4
-        buf[a:b] = bytes(b - a)
+    it = iter(pads)
+    for a, b in zip(it, it, strict=True):
+        buf[a + 4:b + 4] = _ZEROS[: b - a]
     return bytes(buf)
 
 

@@ -312,3 +312,45 @@ def test_recover_of_complete_file_is_identity_of_content(tmp_path):
         recs = list(StreamReader(f).records)
     assert type(recs[-1]).__name__ == "Footer"
     assert np.isfinite(len(recs))
+
+
+def test_recorded_bytes_equal_the_bytes_a_subscriber_receives():
+    """serialize() == what a raw subscription receives over Fast DDS (exact length, zero padding)."""
+    import random
+
+    import rclpy
+    from rclpy.context import Context
+    from visualization_msgs.msg import Marker, MarkerArray
+
+    from cable_sim.replay import build_diagnostics
+
+    os.environ["ROS_DOMAIN_ID"] = str(random.randint(1, 100))
+    os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
+    ctx = Context()
+    rclpy.init(context=ctx)
+    try:
+        node = rclpy.create_node("wire_check", context=ctx)
+        m = Marker(type=Marker.LINE_STRIP, ns="cable")
+        m.points = [type(m.pose.position)(x=float(i), z=-float(i)) for i in range(5)]
+        m.colors = [type(m.color)(r=0.5, a=1.0) for _ in range(5)]
+        msgs = [JointState(name=["platform_heave", "joint_1"], position=[1.0, 2.0]),
+                JointState(name=["platform_heave", "joint_10"], position=[1.0, 2.0], velocity=[0.1, 0.2],
+                           effort=[3.0, 4.0]),
+                MarkerArray(markers=[m, Marker(type=Marker.SPHERE, ns="end")]),
+                build_diagnostics({"real_time_factor": "1.5", "overruns": "0"}, 123),
+                Float64MultiArray(data=[1.0, -2.0])]
+        executor = rclpy.executors.SingleThreadedExecutor(context=ctx)
+        executor.add_node(node)
+        for i, msg in enumerate(msgs):
+            got = []
+            topic = f"wire_{i}"
+            pub = node.create_publisher(type(msg), topic, 10)
+            node.create_subscription(type(msg), topic, got.append, 10, raw=True)
+            t0 = time.monotonic()
+            while not got and time.monotonic() - t0 < 10:
+                pub.publish(msg)
+                executor.spin_once(timeout_sec=0.05)
+            assert got, f"no message received on {topic}"
+            assert serialize(msg) == got[0], type(msg).__name__
+    finally:
+        rclpy.try_shutdown(context=ctx)
