@@ -792,8 +792,21 @@ def build_diagnostics(values: dict[str, Any], stamp_ns: int, name: str = "cable_
     return DiagnosticArray(header=_header(stamp_ns, ""), status=[st])
 
 
+class _NoRecorder:
+    """Stand-in for :class:`~cable_sim.recorder.RunRecorder` when recording is off."""
+
+    stats: dict[str, Any] = {"messages_written": 0, "messages_dropped": 0, "bytes_written": 0,
+                             "errors": 0, "last_error": ""}
+
+    def write(self, *args: Any, **kwargs: Any) -> None:
+        pass
+
+    def close(self) -> None:
+        pass
+
+
 def record_headless(
-    scene: Scene | str, path: str | Path, duration: float, *,
+    scene: Scene | str, path: str | Path | None, duration: float, *,
     kernel: str | None = None, integrator: str | None = None, step: float | None = None,
     n_links: int | None = None, overrides: dict[str, Any] | None = None,
     joint_state_rate: float = 50.0, marker_rate: float = 10.0, tension_rate: float = 50.0,
@@ -808,6 +821,7 @@ def record_headless(
     clock, and received heave_force / wave_elevation). ``inputs`` are (t [s], topic
     ``"heave_force"`` or ``"wave_elevation"``, value) "received" messages: each is recorded on
     its topic at the step it arrives and held from that step on (``applied_inputs`` recorded).
+    With ``path=None`` every message is built but nothing is recorded (benchmark baseline).
 
     Returns
     -------
@@ -843,7 +857,8 @@ def record_headless(
             raise ValueError(f"input topic {name!r}: allowed 'heave_force', 'wave_elevation'")
         sched.setdefault(int(round(t_in / h)), []).append((name, float(value)))
     published: dict[str, int] = {}
-    rec = RunRecorder(path, meta, flush_period=flush_period, chunk_size=chunk_size)
+    rec: Any = (RunRecorder(path, meta, flush_period=flush_period, chunk_size=chunk_size)
+                if path is not None else _NoRecorder())
     t0 = time.perf_counter()
     last = time.monotonic()
 
