@@ -205,18 +205,46 @@ _BASIC_SIZES = {
     "wchar": 2, "int32": 4, "uint32": 4, "float": 4, "int64": 8, "uint64": 8, "double": 8,
     "long double": 16,
 }
-# Field kinds of a compiled plan.
+# Field kinds of a compiled plan. Runs of consecutive fixed-layout fields (primitives, fixed
+# arrays of primitives, nested structures without strings or sequences) are merged into one
+# _K_BLOCK whose size and padding depend only on the start offset modulo 8 (memoised).
 (_K_BASIC, _K_STR, _K_MSG, _K_FIXED, _K_SEQ_BASIC, _K_ARR_BASIC, _K_SEQ_STR, _K_ARR_STR,
- _K_SEQ_FIXED, _K_ARR_FIXED, _K_SEQ_MSG, _K_ARR_MSG) = range(12)
+ _K_SEQ_FIXED, _K_ARR_FIXED, _K_SEQ_MSG, _K_ARR_MSG, _K_BLOCK) = range(13)
+_FIXED_KINDS = (_K_BASIC, _K_ARR_BASIC, _K_FIXED, _K_ARR_FIXED)
 _PLANS: dict[type, list[tuple[str, int, Any]]] = {}
-#: (class, start offset mod 8) -> (size, padding ranges relative to the start) of fixed layouts.
-_FIXED_LAYOUTS: dict[tuple[type, int], tuple[int, tuple[int, ...]]] = {}
 _IS_FIXED: dict[type, bool] = {}
 _ZEROS = bytes(8)
 
 
 class _UnsupportedLayout(TypeError):
     """A field type the walk does not model (wstring): rclpy's bytes are kept as they are."""
+
+
+class _Block:
+    """Consecutive fixed-layout fields: (kind, element size or class, count) items."""
+
+    __slots__ = ("items", "memo")
+
+    def __init__(self, items: list[tuple[int, Any, int]]) -> None:
+        self.items = items
+        self.memo: dict[int, tuple[int, tuple[int, ...]]] = {}
+
+    def layout(self, phase: int) -> tuple[int, tuple[int, ...]]:
+        """(size, padding ranges relative to the start) when starting at offset ``phase`` mod 8."""
+        lay = self.memo.get(phase)
+        if lay is None:
+            pads: list[int] = []
+            pos = phase
+            for kind, arg, count in self.items:
+                if kind == _K_BASIC:
+                    pos = _align(pos, arg, pads) + arg
+                elif kind == _K_ARR_BASIC:
+                    pos = _align(pos, arg, pads) + arg * count if count else pos
+                else:  # nested fixed structure(s)
+                    for _ in range(count):
+                        pos = _put_fixed(arg, pos, pads)
+            lay = self.memo[phase] = (pos - phase, tuple(p - phase for p in pads))
+        return lay
 
 
 def _align(pos: int, a: int, pads: list[int] | None) -> int:
@@ -234,44 +262,62 @@ def _msg_class(t: Any) -> type:
     return getattr(mod, t.name)
 
 
-def _plan(cls: type) -> list[tuple[str, int, Any]]:
-    """Compile the fields of a message class into (attribute, kind, argument) triples."""
-    plan = _PLANS.get(cls)
-    if plan is not None:
-        return plan
+def _raw_plan(cls: type) -> list[tuple[str, int, Any, int]]:
     from rosidl_parser import definition as d
 
-    plan = []
+    plan: list[tuple[str, int, Any, int]] = []
     names = list(cls.get_fields_and_field_types().keys())
     for name, t in zip(names, cls.SLOT_TYPES, strict=True):
+        where = f"{cls.__name__}.{name}"
         if isinstance(t, d.BasicType):
-            plan.append((name, _K_BASIC, _BASIC_SIZES[t.typename]))
+            plan.append((name, _K_BASIC, _BASIC_SIZES[t.typename], 1))
         elif isinstance(t, d.AbstractWString):
-            raise _UnsupportedLayout(f"{cls.__name__}.{name}: wstring")
+            raise _UnsupportedLayout(f"{where}: wstring")
         elif isinstance(t, d.AbstractString):
-            plan.append((name, _K_STR, None))
+            plan.append((name, _K_STR, None, 1))
         elif isinstance(t, d.NamespacedType):
             sub = _msg_class(t)
-            plan.append((name, _K_FIXED if _fixed(sub) else _K_MSG, sub))
+            plan.append((name, _K_FIXED if _fixed(sub) else _K_MSG, sub, 1))
         elif isinstance(t, d.AbstractNestedType):
             seq = isinstance(t, d.AbstractSequence)
+            count = 0 if seq else int(t.size)
             vt = t.value_type
             if isinstance(vt, d.BasicType):
-                plan.append((name, _K_SEQ_BASIC if seq else _K_ARR_BASIC, _BASIC_SIZES[vt.typename]))
+                plan.append((name, _K_SEQ_BASIC if seq else _K_ARR_BASIC, _BASIC_SIZES[vt.typename], count))
             elif isinstance(vt, d.AbstractWString):
-                raise _UnsupportedLayout(f"{cls.__name__}.{name}: wstring")
+                raise _UnsupportedLayout(f"{where}: wstring")
             elif isinstance(vt, d.AbstractString):
-                plan.append((name, _K_SEQ_STR if seq else _K_ARR_STR, None))
+                plan.append((name, _K_SEQ_STR if seq else _K_ARR_STR, None, count))
             elif isinstance(vt, d.NamespacedType):
                 sub = _msg_class(vt)
                 if _fixed(sub):
-                    plan.append((name, _K_SEQ_FIXED if seq else _K_ARR_FIXED, sub))
+                    plan.append((name, _K_SEQ_FIXED if seq else _K_ARR_FIXED, sub, count))
                 else:
-                    plan.append((name, _K_SEQ_MSG if seq else _K_ARR_MSG, sub))
+                    plan.append((name, _K_SEQ_MSG if seq else _K_ARR_MSG, sub, count))
             else:
-                raise _UnsupportedLayout(f"{cls.__name__}.{name}: {vt!r}")
+                raise _UnsupportedLayout(f"{where}: {vt!r}")
         else:
-            raise _UnsupportedLayout(f"{cls.__name__}.{name}: {t!r}")
+            raise _UnsupportedLayout(f"{where}: {t!r}")
+    return plan
+
+
+def _plan(cls: type) -> list[tuple[str, int, Any]]:
+    """Compiled plan of a message class: (attribute, kind, argument) triples."""
+    plan = _PLANS.get(cls)
+    if plan is not None:
+        return plan
+    plan = []
+    block: list[tuple[int, Any, int]] = []
+    for name, kind, arg, count in _raw_plan(cls):
+        if kind in _FIXED_KINDS:
+            block.append((kind, arg, count))
+            continue
+        if block:
+            plan.append(("", _K_BLOCK, _Block(block)))
+            block = []
+        plan.append((name, kind, arg))
+    if block:
+        plan.append(("", _K_BLOCK, _Block(block)))
     _PLANS[cls] = plan
     return plan
 
@@ -280,19 +326,15 @@ def _fixed(cls: type) -> bool:
     """True when every instance of ``cls`` has the same CDR layout (no strings, no sequences)."""
     f = _IS_FIXED.get(cls)
     if f is None:
-        f = _IS_FIXED[cls] = all(k in (_K_BASIC, _K_ARR_BASIC, _K_FIXED, _K_ARR_FIXED)
-                                 for _, k, _ in _plan(cls))
+        f = _IS_FIXED[cls] = all(k in _FIXED_KINDS for _, k, _, _ in _raw_plan(cls))
     return f
 
 
 def _fixed_layout(cls: type, phase: int) -> tuple[int, tuple[int, ...]]:
-    key = (cls, phase)
-    lay = _FIXED_LAYOUTS.get(key)
-    if lay is None:
-        pads: list[int] = []
-        end = _cdr_end(cls(), phase, pads)
-        lay = _FIXED_LAYOUTS[key] = (end - phase, tuple(p - phase for p in pads))
-    return lay
+    plan = _plan(cls)
+    if not plan:  # empty structure: one dummy uint8
+        return 1, ()
+    return plan[0][2].layout(phase)
 
 
 def _put_fixed(cls: type, pos: int, pads: list[int] | None) -> int:
@@ -308,22 +350,30 @@ def _cdr_end(msg: Any, pos: int = 0, pads: list[int] | None = None) -> int:
     if not plan:  # empty structure: one dummy uint8
         return pos + 1
     for name, kind, arg in plan:
+        if kind == _K_BLOCK:
+            size, rel = arg.layout(pos % 8)
+            if rel and pads is not None:
+                pads.extend(pos + r for r in rel)
+            pos += size
+            continue
         v = getattr(msg, name)
-        if kind == _K_BASIC:
-            pos = _align(pos, arg, pads) + arg
-        elif kind == _K_STR:
-            pos = _align(pos, 4, pads) + 5 + (len(v) if v.isascii() else len(v.encode("utf-8")))
-        elif kind == _K_FIXED:
-            pos = _put_fixed(arg, pos, pads)
+        if kind == _K_STR:
+            r = -pos % 4
+            if r and pads is not None:
+                pads += (pos, pos + r)
+            pos += r + 5 + (len(v) if v.isascii() else len(v.encode("utf-8")))
         elif kind == _K_MSG:
             pos = _cdr_end(v, pos, pads)
         else:
             if kind in (_K_SEQ_BASIC, _K_SEQ_STR, _K_SEQ_FIXED, _K_SEQ_MSG):
-                pos = _align(pos, 4, pads) + 4
+                r = -pos % 4
+                if r and pads is not None:
+                    pads += (pos, pos + r)
+                pos += r + 4
             n = len(v)
             if n == 0:
                 continue
-            if kind in (_K_SEQ_BASIC, _K_ARR_BASIC):
+            if kind == _K_SEQ_BASIC:
                 pos = _align(pos, arg, pads) + arg * n
             elif kind in (_K_SEQ_STR, _K_ARR_STR):
                 for x in v:
@@ -331,7 +381,7 @@ def _cdr_end(msg: Any, pos: int = 0, pads: list[int] | None = None) -> int:
                     if r and pads is not None:
                         pads += (pos, pos + r)
                     pos += r + 5 + (len(x) if x.isascii() else len(x.encode("utf-8")))
-            elif kind in (_K_SEQ_FIXED, _K_ARR_FIXED):
+            elif kind == _K_SEQ_FIXED:
                 size, rel = _fixed_layout(arg, pos % 8)
                 if (pos + size) % 8 == pos % 8:  # every element has the same layout
                     if pads is not None and rel:
@@ -463,6 +513,9 @@ class RunRecorder:
         if max_queue < 1:
             raise ValueError(f"max_queue={max_queue!r}: must be >= 1")
         self.flush_period = float(flush_period)
+        #: Writer-thread idle sleep [s]: it drains the queue in batches, so the simulation thread
+        #: hands over the GIL rarely.
+        self._poll = 0.02
         self.max_queue = int(max_queue)
         self._logger = logger
         self._queue: collections.deque[tuple] = collections.deque()
@@ -507,7 +560,10 @@ class RunRecorder:
         _OPEN_RECORDERS.add(self)
 
     # ---------------------------------------------------------------- caller side
-    def write(self, topic: str, msg: Any, log_time_ns: int, publish_time_ns: int | None = None) -> None:
+    def write(
+        self, topic: str, msg: Any, log_time_ns: int, publish_time_ns: int | None = None, *,
+        serialized: bytes | None = None,
+    ) -> None:
         """Record one message (serialised here, written by the background thread).
 
         Never blocks, never raises: problems are counted in :attr:`stats` and logged.
@@ -520,6 +576,9 @@ class RunRecorder:
             The message.
         log_time_ns, publish_time_ns : int
             Timestamps [ns]; ``publish_time_ns`` defaults to ``log_time_ns``.
+        serialized : bytes, optional
+            ``serialize(msg)`` when the caller already has it (e.g. it published these bytes
+            with ``publisher.publish(data)``): serialise once, publish and record the same bytes.
         """
         if self._closing or self._failed:
             self._dropped += 1
@@ -529,7 +588,7 @@ class RunRecorder:
             tname = self._types.get(cls)
             if tname is None:
                 tname = self._types[cls] = type_name_of(cls)
-            data = serialize(msg)
+            data = serialize(msg) if serialized is None else serialized
         except Exception as exc:  # noqa: BLE001 - never raise into the simulation
             self._error(f"cannot serialise message on {topic}: {exc}")
             self._dropped += 1
@@ -632,7 +691,7 @@ class RunRecorder:
                     self._flush()
                     dirty = False
                     last_flush = now
-                time.sleep(0.002)
+                time.sleep(self._poll)
                 continue
             item = q.popleft()
             if self._failed:
