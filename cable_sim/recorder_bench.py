@@ -1,11 +1,14 @@
 """Benchmark: what recording costs the simulation loop (``python -m cable_sim.recorder_bench``).
 
-Runs the node's publish loop without a ROS graph (:func:`cable_sim.replay.record_headless`:
-simulation + every message the node publishes, built as real ROS messages) with recording off
-(messages built, not recorded) and on (:class:`cable_sim.recorder.RunRecorder`, zstd chunks,
-fsync every second), at n = 80 by default, and reports:
+Runs the node's publish loop without the node (:func:`cable_sim.replay.record_headless`:
+simulation + every message the node publishes, built as real ROS messages, published with real
+rclpy publishers in an isolated localhost domain) with recording off and on
+(:class:`cable_sim.recorder.RunRecorder`, zstd chunks, fsync every second), at n = 80 by
+default, and reports:
 
-- loop throughput [physics steps / s] and simulated seconds per wall second, off vs on;
+- loop throughput [physics steps / s] and simulated seconds per wall second: messages built
+  only; built and published with real rclpy publishers; published and recorded; published and
+  recorded from one serialisation (`write(..., serialized=data)`, `publisher.publish(data)`);
 - the caller's cost of :meth:`RunRecorder.write` per message type (serialise + enqueue), median
   / 99th percentile / max [us];
 - the background writer's sustained rate [messages / s, MB / s] and the compression ratio.
@@ -22,6 +25,7 @@ import statistics
 import tempfile
 import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -43,14 +47,60 @@ RATES = {
 }
 
 
-def loop_throughput(scene, duration: float, rates: tuple[float, float, float, float], record: bool,
-                    tmpdir: Path) -> dict:
+MODES = {
+    # name: (publish with rclpy, record, serialise once and publish/record the same bytes)
+    "build only": (False, False, False),
+    "publish": (True, False, False),
+    "publish + record": (True, True, False),
+    "publish + record, serialised once": (True, True, True),
+}
+
+
+class Publishers:
+    """Real rclpy publishers (isolated domain, localhost) for every topic the loop publishes."""
+
+    def __init__(self) -> None:
+        import random
+
+        os.environ.setdefault("ROS_DOMAIN_ID", str(random.randint(150, 200)))
+        os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+        import rclpy
+        from rclpy.context import Context
+
+        self.ctx = Context()
+        rclpy.init(context=self.ctx)
+        self.node = rclpy.create_node("recorder_bench", context=self.ctx)
+        self.pubs: dict[str, Any] = {}
+
+    def publish(self, topic: str, msg: Any) -> None:
+        p = self.pubs.get(topic)
+        if p is None:
+            if isinstance(msg, bytes):
+                raise RuntimeError("first message on a topic must be a message (to know its type)")
+            p = self.pubs[topic] = self.node.create_publisher(type(msg), topic, 10)
+        p.publish(msg)
+
+    def warm(self, scene) -> None:
+        """Create every publisher (with messages) before any byte-only run."""
+        record_headless(scene, None, 0.1, publish=self.publish)
+
+    def close(self) -> None:
+        import rclpy
+
+        self.node.destroy_node()
+        rclpy.try_shutdown(context=self.ctx)
+
+
+def loop_throughput(scene, duration: float, rates: tuple[float, float, float, float], mode: str,
+                    tmpdir: Path, pubs: Publishers) -> dict:
     """One headless run; returns steps/s, sim-time factor and recorder stats."""
+    do_pub, record, once = MODES[mode]
     path = tmpdir / "bench.mcap" if record else None
     js, mk, tn, dg = rates
     t0 = time.perf_counter()
     st = record_headless(scene, path, duration, joint_state_rate=js, marker_rate=mk, tension_rate=tn,
-                         diagnostics_rate=dg)
+                         diagnostics_rate=dg, publish=pubs.publish if do_pub else None,
+                         serialize_once=once)
     wall = time.perf_counter() - t0
     size = path.stat().st_size if path is not None else 0
     if path is not None:
@@ -147,19 +197,26 @@ def main(argv: list[str] | None = None) -> int:
         record_headless(scene, None, 0.2)
         print(f"scene {a.scene}, n = {a.links}, h = {scene.sim['step']} s, kernel {scene.sim['kernel']}, "
               f"{a.duration} s simulated per run, median of {a.repeats} (cpu count {os.cpu_count()})")
-        print(f"{'publish rates':32s} {'recording':9s} {'steps/s':>10s} {'x real time':>12s} "
+        pubs = Publishers()
+        pubs.warm(scene)
+        print(f"{'publish rates':30s} {'mode':34s} {'steps/s':>8s} {'x real time':>11s} "
               f"{'messages':>9s} {'dropped':>8s} {'file MB':>8s}")
-        for rname, rates in RATES.items():
-            for record in (False, True):
-                runs = [loop_throughput(scene, a.duration, rates, record, tmp) for _ in range(a.repeats)]
-                med = {k: statistics.median(r[k] for r in runs) for k in runs[0]}
-                row = {"kind": "loop", "rates": rname, "recording": "on" if record else "off", **med}
-                rows.append(row)
-                print(f"{rname:32s} {row['recording']:9s} {med['steps_per_s']:10.0f} "
-                      f"{med['realtime_factor']:12.1f} {med['messages']:9.0f} {med['dropped']:8.0f} "
-                      f"{med['file_bytes'] / 1e6:8.2f}")
-            off, on = rows[-2]["steps_per_s"], rows[-1]["steps_per_s"]
-            print(f"{'':32s} recording costs {100 * (1 - on / off):.1f} % of loop throughput")
+        try:
+            for rname, rates in RATES.items():
+                for mode in MODES:
+                    runs = [loop_throughput(scene, a.duration, rates, mode, tmp, pubs)
+                            for _ in range(a.repeats)]
+                    med = {k: statistics.median(r[k] for r in runs) for k in runs[0]}
+                    row = {"kind": "loop", "rates": rname, "mode": mode, **med}
+                    rows.append(row)
+                    print(f"{rname:30s} {mode:34s} {med['steps_per_s']:8.0f} {med['realtime_factor']:11.1f} "
+                          f"{med['messages']:9.0f} {med['dropped']:8.0f} {med['file_bytes'] / 1e6:8.2f}")
+                base = next(r["steps_per_s"] for r in rows[-4:] if r["mode"] == "publish")
+                for r in rows[-2:]:
+                    print(f"{'':30s} {r['mode']}: {100 * (1 - r['steps_per_s'] / base):.1f} % "
+                          "below 'publish'")
+        finally:
+            pubs.close()
         print("\ncaller cost of RunRecorder.write (serialise + enqueue), 2000 messages each:")
         print(f"{'message':32s} {'bytes':>7s} {'median us':>10s} {'p99 us':>8s} {'max us':>8s} "
               f"{'serialise us':>13s} {'zstd ratio':>10s}")
@@ -191,18 +248,18 @@ def _plot(rows: list[dict], path: Path, a: argparse.Namespace) -> None:
 
     loops = [r for r in rows if r["kind"] == "loop"]
     writes = [r for r in rows if r["kind"] == "write"]
-    fig, (a1, a2) = plt.subplots(1, 2, figsize=(12, 4.5))
+    fig, (a1, a2) = plt.subplots(1, 2, figsize=(13, 4.8))
     names = list(dict.fromkeys(r["rates"] for r in loops))
     x = np.arange(len(names))
-    for j, rec in enumerate(("off", "on")):
-        v = [next(r["steps_per_s"] for r in loops if r["rates"] == n and r["recording"] == rec)
-             for n in names]
-        bars = a1.bar(x + (j - 0.5) * 0.38, v, 0.38, label=f"recording {rec}")
-        a1.bar_label(bars, fmt="%.0f", fontsize=8)
+    width = 0.8 / len(MODES)
+    for j, mode in enumerate(MODES):
+        v = [next(r["steps_per_s"] for r in loops if r["rates"] == n and r["mode"] == mode) for n in names]
+        bars = a1.bar(x + (j - (len(MODES) - 1) / 2) * width, v, width, label=mode)
+        a1.bar_label(bars, fmt="%.0f", fontsize=7)
     a1.set_xticks(x, names)
     a1.set_ylabel("physics steps / s (incl. building + publishing messages)")
     a1.set_title(f"loop throughput, {a.scene} n = {a.links}")
-    a1.legend()
+    a1.legend(fontsize=8)
     y = np.arange(len(writes))
     a2.barh(y, [r["write_median_us"] for r in writes], label="write() median")
     a2.barh(y, [r["serialize_median_us"] for r in writes], height=0.4, label="serialise only")

@@ -801,6 +801,9 @@ class _NoRecorder:
     def write(self, *args: Any, **kwargs: Any) -> None:
         pass
 
+    def write_serialized(self, *args: Any, **kwargs: Any) -> None:
+        pass
+
     def close(self) -> None:
         pass
 
@@ -813,6 +816,7 @@ def record_headless(
     diagnostics_rate: float = 1.0, inputs: Iterable[tuple[float, str, float]] = (),
     frame_id: str = "world", namespace: str = "", flush_period: float = 1.0,
     chunk_size: int = 1 << 20, progress: Progress | None = None,
+    publish: Callable[[str, Any], None] | None = None, serialize_once: bool = False,
 ) -> dict[str, Any]:
     """Simulate ``scene`` for ``duration`` s without ROS and record what the node would publish.
 
@@ -822,6 +826,9 @@ def record_headless(
     ``"heave_force"`` or ``"wave_elevation"``, value) "received" messages: each is recorded on
     its topic at the step it arrives and held from that step on (``applied_inputs`` recorded).
     With ``path=None`` every message is built but nothing is recorded (benchmark baseline).
+    ``publish(topic, msg_or_bytes)``, if given, is called for every message (e.g. a real rclpy
+    publisher); with ``serialize_once`` the message is serialised once
+    (:func:`cable_sim.recorder.serialize`) and the same bytes are published and recorded.
 
     Returns
     -------
@@ -862,9 +869,19 @@ def record_headless(
     t0 = time.perf_counter()
     last = time.monotonic()
 
+    from .recorder import serialize
+
     def pub(name: str, msg: Any, stamp: int) -> None:
-        rec.write(topic(name) if name != "clock" else "/clock", msg, stamp, stamp)
         key = topic(name) if name != "clock" else "/clock"
+        if serialize_once:
+            data = serialize(msg)
+            if publish is not None:
+                publish(key, data)
+            rec.write(key, msg, stamp, stamp, serialized=data)
+        else:
+            if publish is not None:
+                publish(key, msg)
+            rec.write(key, msg, stamp, stamp)
         published[key] = published.get(key, 0) + 1
 
     try:
