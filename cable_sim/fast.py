@@ -666,3 +666,385 @@ def warmup() -> None:
         energy(model, q, qd)
         state_derivative(model, np.concatenate([q, qd]))
 
+
+
+# --------------------------------------------------------------------------------------------
+# Compiled stepping helpers (issue #5: per-step Python overhead). Additive: everything above is
+# unchanged. A model is passed to these as two arrays, so that calling a compiled stepper costs
+# a handful of argument conversions instead of ~30.
+# --------------------------------------------------------------------------------------------
+
+#: Status codes returned by the compiled steppers and checks.
+STATUS_OK = 0
+STATUS_NONFINITE = 1
+STATUS_DRIFT = 2
+STATUS_TAUT = 3
+STATUS_SINGULAR = 4
+STATUS_ILL_CONDITIONED = 5
+
+#: Rows of the per-link array returned by :func:`pack_arrays`.
+_ARR_ROWS = 8
+
+
+def pack_arrays(model: CableModel) -> tuple[np.ndarray, np.ndarray]:
+    """The model as two arrays for the compiled steppers (cached per model object).
+
+    Returns
+    -------
+    arr : ndarray (8, n)
+        Rows: l, m, m~, k, c, gamma l^2/4, Morison c_n, Morison c_t.
+    par : ndarray (17,)
+        current, drag code, m_c, m~_c, M, k_m, c_m, heave_locked, wave_coupling, g,
+        constrained, anchor x, anchor z, Baumgarte alpha, beta, end code, total length.
+    """
+    try:
+        return _ARRAYS_CACHE[model]
+    except (KeyError, TypeError):
+        pass
+    p = _pack(model)
+    arr = np.ascontiguousarray(np.stack(p[:8]), dtype=np.float64)
+    par = np.array(
+        [p[8], p[9], p[10], p[11], p[12], p[13], p[14], float(p[15]), float(p[16]), p[17],
+         float(p[18]), p[19], p[20], p[21], p[22], float(model.end), float(np.sum(model.length))],
+        dtype=np.float64,
+    )
+    try:
+        _ARRAYS_CACHE[model] = (arr, par)
+    except TypeError:
+        pass
+    return arr, par
+
+
+_ARRAYS_CACHE: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+@nb.njit(cache=True)
+def fd_packed(
+    arr: np.ndarray,
+    par: np.ndarray,
+    u: float,
+    eta: float,
+    q: np.ndarray,
+    qd: np.ndarray,
+    qdd: np.ndarray,
+    lam: np.ndarray,
+) -> bool:
+    """:func:`_fd_kernel` on the packed model (same arithmetic, same results)."""
+    return _fd_kernel(
+        arr[0], arr[1], arr[2], arr[3], arr[4], arr[5], arr[6], arr[7],
+        par[0], int(par[1]), par[2], par[3], par[4], par[5], par[6], par[7] != 0.0,
+        par[8] != 0.0, par[9], par[10] != 0.0, par[11], par[12], par[13], par[14],
+        u, eta, q, qd, qdd, lam,
+    )
+
+
+@nb.njit(cache=True)
+def joint_forces_packed(
+    arr: np.ndarray,
+    par: np.ndarray,
+    lamx: float,
+    lamz: float,
+    q: np.ndarray,
+    qd: np.ndarray,
+    qdd: np.ndarray,
+) -> np.ndarray:
+    """:func:`_joint_forces_kernel` on the packed model."""
+    return _joint_forces_kernel(
+        arr[0], arr[1], arr[2], arr[6], arr[7], par[0], int(par[1]), par[2], par[3], par[9],
+        par[10] != 0.0, lamx, lamz, q, qd, qdd,
+    )
+
+
+@nb.njit(cache=True)
+def project_packed(arr: np.ndarray, par: np.ndarray, y: np.ndarray, tol: float) -> None:
+    """In-place projection onto Phi(q) = 0 and Phi_q qd = 0.
+
+    The algorithm of :func:`cable_sim.system.project_constraint` (at most 5 Gauss-Newton steps
+    ``dq = -J^T (J J^T)^-1 Phi`` on the free coordinates, then the least-squares velocity
+    projection), O(n).
+    """
+    n = arr.shape[1]
+    l = arr[0]
+    n1 = n + 1
+    s0 = 1 if par[7] != 0.0 else 0
+    ax = par[11]
+    az = par[12]
+    big = par[16]
+    for _ in range(5):
+        px = 0.0
+        pz = y[0]
+        for i in range(n):
+            px += l[i] * np.sin(y[i + 1])
+            pz -= l[i] * np.cos(y[i + 1])
+        fx = px - ax
+        fz = pz - az
+        if np.hypot(fx, fz) <= tol * big:
+            break
+        # J J^T over the free coordinates
+        a11 = 0.0
+        a12 = 0.0
+        a22 = 1.0 if s0 == 0 else 0.0
+        for i in range(n):
+            jx = l[i] * np.cos(y[i + 1])
+            jz = l[i] * np.sin(y[i + 1])
+            a11 += jx * jx
+            a12 += jx * jz
+            a22 += jz * jz
+        det = a11 * a22 - a12 * a12
+        mx = (a22 * fx - a12 * fz) / det
+        mz = (a11 * fz - a12 * fx) / det
+        if s0 == 0:
+            y[0] -= mz
+        for i in range(n):
+            y[i + 1] -= l[i] * np.cos(y[i + 1]) * mx + l[i] * np.sin(y[i + 1]) * mz
+    a11 = 0.0
+    a12 = 0.0
+    a22 = 1.0 if s0 == 0 else 0.0
+    vx = 0.0
+    vz = y[n1] if s0 == 0 else 0.0
+    for i in range(n):
+        jx = l[i] * np.cos(y[i + 1])
+        jz = l[i] * np.sin(y[i + 1])
+        a11 += jx * jx
+        a12 += jx * jz
+        a22 += jz * jz
+        vx += jx * y[n1 + i + 1]
+        vz += jz * y[n1 + i + 1]
+    det = a11 * a22 - a12 * a12
+    mx = (a22 * vx - a12 * vz) / det
+    mz = (a11 * vz - a12 * vx) / det
+    if s0 == 0:
+        y[n1] -= mz
+    for i in range(n):
+        y[n1 + i + 1] -= l[i] * np.cos(y[i + 1]) * mx + l[i] * np.sin(y[i + 1]) * mz
+
+
+@nb.njit(cache=True)
+def end_drift_packed(arr: np.ndarray, par: np.ndarray, y: np.ndarray) -> float:
+    """|p_n - anchor| [m]."""
+    n = arr.shape[1]
+    l = arr[0]
+    px = 0.0
+    pz = y[0]
+    for i in range(n):
+        px += l[i] * np.sin(y[i + 1])
+        pz -= l[i] * np.cos(y[i + 1])
+    return np.hypot(px - par[11], pz - par[12])
+
+
+@nb.njit(cache=True)
+def schur_packed(arr: np.ndarray, par: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """``J M^-1 J^T`` (2x2, end accelerations per unit end force) in O(n), load excluded.
+
+    The same backward/forward sweep as :func:`_fd_kernel` with its two unit-force right-hand
+    sides (zero velocity and gravity); the terminal load is not included (as for the anchored
+    end and the heavy-load Woodbury form).
+    """
+    n = arr.shape[1]
+    l = arr[0]
+    m = arr[1]
+    mp = par[4]
+    locked = par[7] != 0.0
+    cth = np.empty(n)
+    sth = np.empty(n)
+    dd = np.empty(n)
+    hx = np.empty(n)
+    hz = np.empty(n)
+    rr = np.empty((2, n))
+    axx = 0.0
+    axz = 0.0
+    azz = 0.0
+    bx = np.zeros(2)
+    bz = np.zeros(2)
+    bx[0] = -1.0
+    bz[1] = -1.0
+    for i in range(n - 1, -1, -1):
+        c = np.cos(q[i + 1])
+        s = np.sin(q[i + 1])
+        cth[i] = c
+        sth[i] = s
+        li = l[i]
+        mi = m[i]
+        atx = axx * c + axz * s
+        atz = axz * c + azz * s
+        cs = c * s
+        x = axx * c * c + 2.0 * axz * cs + azz * s * s
+        y = (axx - azz) * cs + axz * (s * s - c * c)
+        z = axx * s * s - 2.0 * axz * cs + azz * c * c
+        xp = x + mi / 3.0
+        d = li * li * xp
+        h_x = li * atx + 0.5 * mi * li * c
+        h_z = li * atz + 0.5 * mi * li * s
+        dd[i] = d
+        hx[i] = h_x
+        hz[i] = h_z
+        for k in range(2):
+            rk = -li * (c * bx[k] + s * bz[k])
+            rr[k, i] = rk
+            bx[k] += h_x * rk / d
+            bz[k] += h_z * rk / d
+            if abs(bx[k]) + abs(bz[k]) < _TINY:
+                bx[k] = 0.0
+                bz[k] = 0.0
+        a_tt = mi * (x / 3.0 + mi / 12.0) / xp
+        a_te = -y * (mi / 6.0) / xp
+        a_ee = mi + z - y * y / xp
+        axx = a_tt * c * c + 2.0 * a_te * c * s + a_ee * s * s
+        axz = a_tt * c * s + a_te * (s * s - c * c) - a_ee * s * c
+        azz = a_tt * s * s - 2.0 * a_te * s * c + a_ee * c * c
+    out = np.empty((2, 2))
+    for k in range(2):
+        zdd = 0.0 if locked else -bz[k] / (mp + azz)
+        apx = 0.0
+        apz = zdd
+        for i in range(n):
+            alpha = (rr[k, i] - hx[i] * apx - hz[i] * apz) / dd[i]
+            apx += l[i] * cth[i] * alpha
+            apz += l[i] * sth[i] * alpha
+        out[0, k] = apx
+        out[1, k] = apz
+    return out
+
+
+@nb.njit(cache=True)
+def condition_2x2(a11: float, a12: float, a21: float, a22: float) -> float:
+    """2-norm condition number of a 2x2 matrix (inf if singular)."""
+    # singular values from the Frobenius norm and the determinant
+    fro2 = a11 * a11 + a12 * a12 + a21 * a21 + a22 * a22
+    det = abs(a11 * a22 - a12 * a21)
+    disc = np.sqrt(max(fro2 * fro2 - 4.0 * det * det, 0.0))
+    smax2 = 0.5 * (fro2 + disc)
+    if det == 0.0 or smax2 == 0.0:
+        return np.inf
+    smin2 = det * det / smax2
+    return np.sqrt(smax2 / smin2)
+
+
+@nb.njit(cache=True)
+def check_packed(
+    arr: np.ndarray, par: np.ndarray, y: np.ndarray, chk: np.ndarray, info: np.ndarray
+) -> int:
+    """The integrator's per-step check, compiled: finite, project (anchored), drift, slack,
+    Schur conditioning. ``chk = [max_drift, taut_slack, projection tol, max Schur condition,
+    slack below which the Schur condition is checked]``. Modifies ``y`` (projection); on failure
+    writes the offending value to ``info[2]`` and returns a status code."""
+    for v in y:
+        if not np.isfinite(v):
+            return STATUS_NONFINITE
+    if par[10] != 0.0:
+        project_packed(arr, par, y, chk[2])
+        for v in y:
+            if not np.isfinite(v):
+                return STATUS_NONFINITE
+        drift = end_drift_packed(arr, par, y)
+        if drift > chk[0]:
+            info[2] = drift
+            return STATUS_DRIFT
+    if par[15] != 0.0:
+        slack = 1.0 - np.hypot(par[11], y[0] - par[12]) / par[16]
+        if slack < chk[1]:
+            info[2] = slack
+            return STATUS_TAUT
+        if slack < chk[4]:
+            n1 = y.shape[0] // 2
+            s = schur_packed(arr, par, y[:n1])
+            cond = condition_2x2(s[0, 0], s[0, 1], s[1, 0], s[1, 1])
+            if cond > chk[3]:
+                info[2] = cond
+                return STATUS_ILL_CONDITIONED
+    return STATUS_OK
+
+
+@nb.njit(cache=True)
+def rk4_run(
+    arr: np.ndarray,
+    par: np.ndarray,
+    h: float,
+    u: np.ndarray,
+    eta: np.ndarray,
+    y: np.ndarray,
+    chk: np.ndarray,
+    info: np.ndarray,
+) -> int:
+    """``u.shape[0]`` classical RK4 steps of size h, each followed by :func:`check_packed`.
+
+    ``u[k] = (u(t_k), u(t_k + h/2), u(t_k + h))`` and likewise ``eta``. On success ``y`` holds
+    the final state; on failure the last good state, ``info[1]`` the index of the failed step
+    and the status code is returned. The arithmetic is that of ``integrators.RK4._step``.
+    """
+    n2 = y.shape[0]
+    n1 = n2 // 2
+    k1 = np.empty(n2)
+    k2 = np.empty(n2)
+    k3 = np.empty(n2)
+    k4 = np.empty(n2)
+    ys = np.empty(n2)
+    yn = np.empty(n2)
+    qdd = np.empty(n1)
+    lam = np.empty(2)
+    hh = h / 2
+    h6 = h / 6
+    for k in range(u.shape[0]):
+        info[1] = k
+        # k1
+        if not fd_packed(arr, par, u[k, 0], eta[k, 0], y[:n1], y[n1:], qdd, lam):
+            return STATUS_SINGULAR
+        k1[:n1] = y[n1:]
+        k1[n1:] = qdd
+        for j in range(n2):
+            ys[j] = y[j] + hh * k1[j]
+        if not fd_packed(arr, par, u[k, 1], eta[k, 1], ys[:n1], ys[n1:], qdd, lam):
+            return STATUS_SINGULAR
+        k2[:n1] = ys[n1:]
+        k2[n1:] = qdd
+        for j in range(n2):
+            ys[j] = y[j] + hh * k2[j]
+        if not fd_packed(arr, par, u[k, 1], eta[k, 1], ys[:n1], ys[n1:], qdd, lam):
+            return STATUS_SINGULAR
+        k3[:n1] = ys[n1:]
+        k3[n1:] = qdd
+        for j in range(n2):
+            ys[j] = y[j] + h * k3[j]
+        if not fd_packed(arr, par, u[k, 2], eta[k, 2], ys[:n1], ys[n1:], qdd, lam):
+            return STATUS_SINGULAR
+        k4[:n1] = ys[n1:]
+        k4[n1:] = qdd
+        for j in range(n2):
+            yn[j] = y[j] + h6 * (k1[j] + 2 * k2[j] + 2 * k3[j] + k4[j])
+        status = check_packed(arr, par, yn, chk, info)
+        if status != STATUS_OK:
+            return status
+        y[:] = yn
+    return STATUS_OK
+
+
+@nb.njit(cache=True)
+def symplectic_euler_run(
+    arr: np.ndarray,
+    par: np.ndarray,
+    h: float,
+    u: np.ndarray,
+    eta: np.ndarray,
+    y: np.ndarray,
+    chk: np.ndarray,
+    info: np.ndarray,
+) -> int:
+    """``u.shape[0]`` symplectic Euler steps (``u[k] = u(t_k)``), each checked; as
+    :func:`rk4_run`. Arithmetic of ``integrators.SemiImplicitEuler._step``."""
+    n2 = y.shape[0]
+    n1 = n2 // 2
+    qdd = np.empty(n1)
+    lam = np.empty(2)
+    yn = np.empty(n2)
+    for k in range(u.shape[0]):
+        info[1] = k
+        if not fd_packed(arr, par, u[k], eta[k], y[:n1], y[n1:], qdd, lam):
+            return STATUS_SINGULAR
+        for j in range(n1):
+            yn[n1 + j] = y[n1 + j] + h * qdd[j]
+            yn[j] = y[j] + h * yn[n1 + j]
+        status = check_packed(arr, par, yn, chk, info)
+        if status != STATUS_OK:
+            return status
+        y[:] = yn
+    return STATUS_OK

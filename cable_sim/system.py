@@ -85,9 +85,20 @@ class CableSystem:
         return self.forward(self.model, y[:n1], y[n1:], self.input_at(t))
 
     def project(self, y: np.ndarray) -> np.ndarray:
-        """Project y onto the anchor constraint (identity for a free end)."""
+        """Project y onto the anchor constraint (identity for a free end).
+
+        With the ``fast`` kernel the same algorithm runs compiled
+        (:func:`cable_sim.fast.project_packed`), as in the compiled steppers.
+        """
         if not self.model.constrained:
             return y
+        if self.kernel == "fast":
+            from . import fast
+
+            arr, par = fast.pack_arrays(self.model)
+            out = np.array(y, dtype=float, copy=True)
+            fast.project_packed(arr, par, out, 1e-12)
+            return out
         return project_constraint(self.model, y)
 
     def constraint_drift(self, y: np.ndarray) -> float:
