@@ -28,7 +28,7 @@ from .scenes import Scene
 
 DEFAULT_LINKS = (5, 10, 20, 40, 80)
 DEFAULT_STEPS = (0.05, 0.02, 0.01, 0.005, 0.002, 0.001)
-DEFAULT_INTEGRATORS = ("rk4", "symplectic_euler")
+DEFAULT_INTEGRATORS = ("rk4", "symplectic_euler", "rosenbrock2")
 
 
 #: Arc-length stations (fractions of L) where line positions are compared.

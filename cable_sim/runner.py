@@ -207,7 +207,10 @@ class Simulation:
         m = self.model
         q, qd = self.y[: m.ndof], self.y[m.ndof:]
         inputs = self.inputs_at(self.t)
-        qdd, lam = self.system.forward(m, q, qd, inputs)
+        try:
+            qdd, lam = self.system.forward(m, q, qd, inputs)
+        except np.linalg.LinAlgError as exc:
+            raise IntegrationError(self.t, f"singular dynamics (line pulled straight?): {exc}") from exc
         F = dynamics.joint_forces(m, q, qd, qdd, lam)
         rel = np.empty(m.n)
         rel[0] = q[1]
