@@ -214,6 +214,7 @@ _FIXED_KINDS = (_K_BASIC, _K_ARR_BASIC, _K_FIXED, _K_ARR_FIXED)
 _PLANS: dict[type, list[tuple[str, int, Any]]] = {}
 _IS_FIXED: dict[type, bool] = {}
 _ZEROS = bytes(8)
+_serialize_message: Callable[[Any], bytes] | None = None  # rclpy's, imported on first use
 
 
 class _UnsupportedLayout(TypeError):
@@ -409,9 +410,10 @@ def serialize(msg: Any) -> bytes:
     leaves uninitialised) set to zero, so the same message always gives the same bytes. Messages
     with wstring fields are returned as rclpy gives them.
     """
-    from rclpy.serialization import serialize_message
-
-    data = serialize_message(msg)
+    global _serialize_message
+    if _serialize_message is None:
+        from rclpy.serialization import serialize_message as _serialize_message
+    data = _serialize_message(msg)
     pads: list[int] = []
     try:
         n = 4 + _cdr_end(msg, 0, pads)
