@@ -1,0 +1,575 @@
+"""cable_sim_node: the rclpy adapter around :class:`cable_sim.runner.Simulation`.
+
+All physics lives in the ROS-free core; this node declares the scene as ROS parameters, paces
+the simulation (real time, as fast as possible with /clock, or lockstep with a controller),
+turns inputs from topics into held inputs, publishes the outputs, and records the run to MCAP.
+The interface (topics, types, units, QoS, parameters) is in ``msg_configs/interface.yaml`` and
+the README.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import sys
+import time
+from collections import deque
+from datetime import UTC, datetime
+from typing import Any
+
+import numpy as np
+import rclpy
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+from geometry_msgs.msg import WrenchStamped
+from rcl_interfaces.msg import (
+    FloatingPointRange,
+    IntegerRange,
+    ParameterDescriptor,
+    SetParametersResult,
+)
+from rclpy.executors import ExternalShutdownException
+from rclpy.node import Node
+from rclpy.qos import QoSProfile, ReliabilityPolicy
+from rosgraph_msgs.msg import Clock
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Float64, Float64MultiArray
+from std_srvs.srv import SetBool, Trigger
+from visualization_msgs.msg import MarkerArray
+
+from .integrators import IntegrationError
+from .params import CableParams, ParameterError
+from .replay import (
+    _clock,
+    build_diagnostics,
+    build_float_array,
+    build_joint_state,
+    build_markers,
+    build_wrench,
+)
+from .runner import Outputs, Simulation
+from .scenes import SIM_DEFAULTS, available_scenes, read_parameter_file, scene_from_dict, scene_path
+
+DEFAULT_SCENE = "mooring_line"
+CLOCK_MODES = ("realtime", "fast", "lockstep")
+
+#: Built-in input keys a scene may leave out (defaults; see cable_sim.inputs.make_signal).
+INPUT_DEFAULTS: dict[str, Any] = {
+    "heave_force_amplitude": 0.0, "heave_force_period": 10.0, "heave_force_phase": 0.0,
+    "heave_force_ramp": 0.0, "heave_force_value": 0.0,
+    "wave_amplitude": 0.0, "wave_period": 10.0, "wave_phase": 0.0, "wave_ramp": 0.0,
+    "wave_value": 0.0, "wave_hs": 2.0, "wave_tp": 10.0, "wave_gamma": 3.3, "wave_seed": 0,
+    "frame_interval": 1.0,
+}
+
+#: Node settings: name -> (default, description, (low, high) or None). Changeable at run time.
+NODE_PARAMS: dict[str, tuple[Any, str, tuple[float, float] | None]] = {
+    "joint_state_rate": (50.0, "JointState publication rate [Hz] (sim time)", (0.1, 1000.0)),
+    "marker_rate": (10.0, "MarkerArray publication rate [Hz] (sim time)", (0.1, 1000.0)),
+    "tension_rate": (20.0, "fairlead/anchor force and line tension rate [Hz]", (0.1, 1000.0)),
+    "diagnostics_rate": (1.0, "diagnostics rate [Hz] (wall time)", (0.05, 100.0)),
+    "input_timeout": (2.0, "an input older than this [s] falls back to zero (not lockstep)",
+                      (0.01, 3600.0)),
+    "heave_force_limit": (1.0e7, "largest accepted |heave_force| [N]", (1.0, 1.0e12)),
+    "wave_elevation_limit": (30.0, "largest accepted |wave_elevation| [m]", (0.01, 1000.0)),
+}
+READ_ONLY_NODE: dict[str, tuple[Any, str]] = {
+    "clock_mode": ("realtime", "realtime | fast (publishes /clock) | lockstep (waits for heave_force)"),
+    "control_period": (0.05, "lockstep: simulated time [s] advanced per heave_force message"),
+    "record": (True, "record the run to MCAP"),
+    "record_path": ("", "MCAP file; default runs/<scene>_<YYYYmmdd-HHMMSS>.mcap"),
+    "frame_id": ("world", "frame of all stamped outputs (x-z plane, z up)"),
+    "exit_at_end": (False, "with duration > 0: stop, close the recording and exit 0 at the end"),
+}
+STRUCTURAL = set(CableParams.field_names()) | set(SIM_DEFAULTS) | set(INPUT_DEFAULTS)
+
+
+def _check_input(value: float, limit: float) -> str | None:
+    """Why an input value is rejected (None if accepted)."""
+    if not math.isfinite(value):
+        return f"non-finite value {value!r}"
+    if abs(value) > limit:
+        return f"|{value:.6g}| exceeds the limit {limit:.6g}"
+    return None
+
+
+class CableSimNode(Node):
+    """The cable simulation node (see the module docstring and the README's interface)."""
+
+    def __init__(self, **kwargs: Any) -> None:
+        super().__init__("cable_sim_node", **kwargs)
+        self.scene = self._declare_scene()
+        for name, (default, desc, rng) in NODE_PARAMS.items():
+            d = ParameterDescriptor(description=desc)
+            if rng is not None:
+                d.floating_point_range = [FloatingPointRange(from_value=rng[0], to_value=rng[1])]
+            self.declare_parameter(name, default, d)
+        for name, (default, desc) in READ_ONLY_NODE.items():
+            self.declare_parameter(name, default, ParameterDescriptor(description=desc, read_only=True))
+        self.add_on_set_parameters_callback(self._on_set_parameters)
+        self.clock_mode = self._p("clock_mode")
+        if self.clock_mode not in CLOCK_MODES:
+            raise ParameterError("clock_mode", self.clock_mode, " | ".join(CLOCK_MODES))
+        self.frame_id = self._p("frame_id")
+
+        t_build = time.perf_counter()
+        self.sim = Simulation(self.scene)
+        if self.sim.kernel == "fast":
+            from . import fast
+
+            fast.warmup()
+            self.sim.integrator.step(0.0, self.sim.y.copy())  # compile the stepper before real time
+            self.sim.integrator.nsteps = 0
+        self.build_time = time.perf_counter() - t_build
+        self.h = self.sim.h
+        self.duration = float(self.scene.sim["duration"])
+        cp = self._p("control_period")
+        self.steps_per_control = max(1, int(round(cp / self.h)))
+        if self.clock_mode == "lockstep" and abs(self.steps_per_control * self.h - cp) > 1e-9 * cp:
+            raise ParameterError("control_period", cp, f"a multiple of the step {self.h} s")
+
+        qos = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
+        self.pub_js = self.create_publisher(JointState, "joint_states", qos)
+        self.pub_mk = self.create_publisher(MarkerArray, "cable_markers", qos)
+        self.pub_ft = self.create_publisher(WrenchStamped, "fairlead_tension", qos)
+        self.pub_af = (self.create_publisher(WrenchStamped, "anchor_force", qos)
+                       if self.sim.model.end != 0 else None)
+        self.pub_lt = self.create_publisher(Float64MultiArray, "line_tension", qos)
+        self.pub_dg = self.create_publisher(DiagnosticArray, "diagnostics", qos)
+        self.pub_ai = self.create_publisher(Float64MultiArray, "applied_inputs", qos)
+        self.pub_clock = (self.create_publisher(Clock, "/clock", qos)
+                          if self.clock_mode != "realtime" else None)
+        self.create_subscription(Float64, "heave_force", self._on_heave_force, qos)
+        self.create_subscription(Float64, "wave_elevation", self._on_wave_elevation, qos)
+        self.create_service(Trigger, "reset", self._on_reset)
+        self.create_service(SetBool, "pause", self._on_pause)
+
+        ns = self.get_namespace().rstrip("/")
+        self._topic = {name: f"{ns}/{name}" for name in (
+            "joint_states", "cable_markers", "fairlead_tension", "anchor_force", "line_tension",
+            "diagnostics", "applied_inputs", "heave_force", "wave_elevation")}
+        self._topic["clock"] = "/clock"
+        self.published: dict[str, int] = {
+            k: 0 for k in self._topic if k not in ("heave_force", "wave_elevation")}
+        self.rejected = {"heave_force": 0, "wave_elevation": 0}
+        self.received = {"heave_force": 0, "wave_elevation": 0}
+        self.last_input_wall = {"heave_force": 0.0, "wave_elevation": 0.0}
+        self.overruns = 0
+        self.paused = False
+        self.failure = ""
+        self.finished = False
+        self.step_wall = 0.0
+        self.steps_done = 0
+        self.tick_times: deque[float] = deque(maxlen=100_000)
+        self.lockstep_queue: deque[float] = deque()
+        self.pending_wave: float | None = None
+        self.recorder = self._open_recorder()
+        self._rates_changed()
+        self.start_wall = time.monotonic()
+        self.sim_wall_base = (self.start_wall, 0.0)  # (wall, sim time) pair that paces real time
+
+        self._publish_outputs(force_all=True)
+        if self.clock_mode == "realtime":
+            self.tick_period = min(0.02, 1.0 / self._p("joint_state_rate"))
+            self.create_timer(self.tick_period, self._tick_realtime)
+        elif self.clock_mode == "fast":
+            self.create_timer(0.0005, self._tick_fast)
+        self.create_timer(1.0 / self._p("diagnostics_rate"), self._publish_diagnostics)
+        if self.clock_mode != "lockstep":
+            self.create_timer(0.1, self._check_input_timeouts)
+        self._log_startup()
+
+    # ------------------------------------------------------------------ parameters and scene
+    def _p(self, name: str) -> Any:
+        return self.get_parameter(name).value
+
+    def _declare_scene(self):
+        """Declare every scene key as a read-only parameter and build the Scene from them."""
+        self.declare_parameter("scene", "", ParameterDescriptor(
+            description=f"scene name ({', '.join(available_scenes())}) or YAML path whose values "
+                        "are the defaults; other parameters override them", read_only=True))
+        self.declare_parameter("scene_name", "", ParameterDescriptor(
+            description="scene name (set by scene files)", read_only=True))
+        name = self._p("scene") or self._p("scene_name") or DEFAULT_SCENE
+        try:
+            base = read_parameter_file(scene_path(name))
+        except FileNotFoundError:
+            if self._p("scene"):
+                raise
+            base = read_parameter_file(scene_path(DEFAULT_SCENE))
+        defaults: dict[str, Any] = {k: v for k, v in CableParams().to_dict().items() if v is not None}
+        for key in ("diameter", "line_density"):  # per-link fields: scalar default
+            defaults[key] = float(defaults[key][0])
+        defaults.update(SIM_DEFAULTS)
+        defaults.update(INPUT_DEFAULTS)
+        defaults.update(base)
+        defaults.pop("scene_name", None)
+        values: dict[str, Any] = {"scene_name": self._p("scene_name") or base.get("scene_name", name)}
+        for key, default in defaults.items():
+            if isinstance(default, (list, tuple)):
+                default = [float(x) for x in default]
+            d = ParameterDescriptor(description=f"scene key {key} (see README, Scenes)",
+                                    read_only=True)
+            if key == "n_links":
+                d.integer_range = [IntegerRange(from_value=1, to_value=1_000_000, step=1)]
+            values[key] = self.declare_parameter(key, default, d).value
+        if values.get("link_lengths") in ([], None):
+            values.pop("link_lengths", None)
+        return scene_from_dict(values)
+
+    def _on_set_parameters(self, params: list) -> SetParametersResult:
+        for p in params:
+            if p.name in NODE_PARAMS:
+                v = p.value
+                lo, hi = NODE_PARAMS[p.name][2]
+                if not isinstance(v, float) or not (lo <= v <= hi) or not math.isfinite(v):
+                    return SetParametersResult(
+                        successful=False,
+                        reason=f"parameter '{p.name}' = {v!r} is invalid; allowed: a float in [{lo}, {hi}]")
+        return SetParametersResult(successful=True)
+
+    def _rates_changed(self) -> None:
+        def every(rate: float) -> int:
+            return max(1, int(round(1.0 / (rate * self.h))))
+
+        self.every_js = every(self._p("joint_state_rate"))
+        self.every_mk = every(self._p("marker_rate"))
+        self.every_tn = every(self._p("tension_rate"))
+
+    def _log_startup(self) -> None:
+        m = self.sim.model
+        end = m.params.end_condition
+        rec = f"recording to {self.recorder.path}" if self.recorder else "not recording"
+        line = (
+            f"simulating scene '{self.sim.scene.name}': n = {m.n} links, end = {end}, terms = "
+            f"[{', '.join(m.terms())}], integrator = {self.sim.integrator.name}, step = {self.h:g} s, "
+            f"kernel = {self.sim.kernel}, clock = {self.clock_mode}, rates js/markers/tension/diag = "
+            f"{self._p('joint_state_rate'):g}/{self._p('marker_rate'):g}/{self._p('tension_rate'):g}/"
+            f"{self._p('diagnostics_rate'):g} Hz, duration = "
+            f"{self.duration if self.duration > 0 else 'unbounded'}, {rec}"
+        )
+        if self.sim.choice is not None:
+            line += f"; chosen for the scene's tolerance: {self.sim.choice.reason}"
+        self.get_logger().info(line)
+
+    # ------------------------------------------------------------------ recording
+    def _open_recorder(self):
+        if not self._p("record"):
+            return None
+        try:
+            from .recorder import RecorderError, RunRecorder, run_metadata
+        except ImportError as exc:  # pragma: no cover - recorder needs mcap
+            self.get_logger().error(f"recording disabled: {exc}")
+            return None
+        path = self._p("record_path") or os.path.join(
+            "runs", f"{self.sim.scene.name}_{datetime.now().strftime('%Y%m%d-%H%M%S')}.mcap")
+        meta = run_metadata(dict(self.sim.scene.source), kernel=self.sim.kernel,
+                            integrator=self.sim.integrator.name, step=self.h,
+                            n_links=self.sim.model.n, clock_mode=self.clock_mode,
+                            start=datetime.now(UTC))
+        try:
+            return RunRecorder(path, meta, logger=self.get_logger())
+        except RecorderError as exc:
+            self.get_logger().error(f"{exc}; the simulation runs without recording")
+            self.record_error = str(exc)
+            return None
+
+    def _stamp(self) -> int:
+        return int(round(self.sim.k * self.h * 1e9))
+
+    def _publish(self, name: str, pub, msg, stamp: int) -> None:
+        pub.publish(msg)
+        self.published[name] += 1
+        if self.recorder is not None:
+            self.recorder.write(self._topic[name], msg, stamp)
+
+    # ------------------------------------------------------------------ inputs
+    def _accept(self, name: str, value: float, limit: float) -> bool:
+        self.received[name] += 1
+        if self.recorder is not None:
+            self.recorder.write(self._topic[name], Float64(data=value), self._stamp())
+        reason = _check_input(value, limit)
+        if reason is not None:
+            self.rejected[name] += 1
+            self.get_logger().warning(
+                f"rejected {name} input: {reason} ({self.rejected[name]} rejected so far)",
+                throttle_duration_sec=2.0)
+            return False
+        self.last_input_wall[name] = time.monotonic()
+        return True
+
+    def _applied_changed(self) -> None:
+        msg = build_float_array([self.sim.held_heave_force, self.sim.held_wave_elevation])
+        self._publish("applied_inputs", self.pub_ai, msg, self._stamp())
+
+    def _on_heave_force(self, msg: Float64) -> None:
+        value = float(msg.data)
+        if not self._accept("heave_force", value, self._p("heave_force_limit")):
+            return
+        if self.clock_mode == "lockstep":
+            self.lockstep_queue.append(value)
+            self._advance_lockstep()
+        elif value != self.sim.held_heave_force:
+            self.sim.set_heave_force(value)
+            self._applied_changed()
+
+    def _on_wave_elevation(self, msg: Float64) -> None:
+        value = float(msg.data)
+        if not self._accept("wave_elevation", value, self._p("wave_elevation_limit")):
+            return
+        if self.clock_mode == "lockstep":
+            self.pending_wave = value  # applied at the next control-period boundary
+        elif value != self.sim.held_wave_elevation:
+            self.sim.set_wave_elevation(value)
+            self._applied_changed()
+
+    def _check_input_timeouts(self) -> None:
+        now, timeout = time.monotonic(), self._p("input_timeout")
+        for name, held, setter in (
+            ("heave_force", self.sim.held_heave_force, self.sim.set_heave_force),
+            ("wave_elevation", self.sim.held_wave_elevation, self.sim.set_wave_elevation),
+        ):
+            if held != 0.0 and now - self.last_input_wall[name] > timeout:
+                setter(0.0)
+                self._applied_changed()
+                self.get_logger().warning(
+                    f"{name} input older than input_timeout = {timeout:g} s: falling back to zero")
+
+    # ------------------------------------------------------------------ services
+    def _on_reset(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
+        self.sim.reset()
+        self.failure = ""
+        self.finished = False
+        self.lockstep_queue.clear()
+        self.pending_wave = None
+        self.sim_wall_base = (time.monotonic(), 0.0)
+        self._applied_changed()
+        self._publish_outputs(force_all=True)
+        response.success, response.message = True, "reset to the scene's initial state at t = 0"
+        self.get_logger().info(response.message)
+        return response
+
+    def _on_pause(self, request: SetBool.Request, response: SetBool.Response) -> SetBool.Response:
+        if request.data != self.paused:
+            self.paused = bool(request.data)
+            self.sim_wall_base = (time.monotonic(), self.sim.t)
+        response.success = True
+        response.message = "paused" if self.paused else "running"
+        return response
+
+    # ------------------------------------------------------------------ stepping
+    def _running(self) -> bool:
+        return not (self.paused or self.failure or self.finished)
+
+    def _step_once(self) -> bool:
+        """One physics step plus the outputs due at the new step; False when stopped."""
+        w = time.perf_counter()
+        try:
+            self.sim.step()
+        except IntegrationError as exc:
+            self._fail(str(exc))
+            return False
+        self.step_wall += time.perf_counter() - w
+        self.steps_done += 1
+        k = self.sim.k
+        due = (self.clock_mode != "lockstep" and k % self.every_js == 0,
+               k % self.every_mk == 0, k % self.every_tn == 0)
+        if any(due):
+            self._publish_outputs(*due)
+        if self.duration > 0 and self.sim.t >= self.duration - 1e-9:
+            self._finish()
+            return False
+        return not self.failure
+
+    def _fail(self, reason: str) -> None:
+        self.failure = reason
+        self.get_logger().error(f"simulation stopped at t = {self.sim.t:.4f} s: {reason}; "
+                                "call the 'reset' service to start again")
+        self._publish_diagnostics()
+
+    def _finish(self) -> None:
+        self.finished = True
+        self.get_logger().info(f"scene duration {self.duration:g} s reached")
+        self._publish_diagnostics()
+        if self._p("exit_at_end"):
+            raise SystemExit(0)
+
+    def _tick_realtime(self) -> None:
+        now = time.monotonic()
+        self.tick_times.append(now)
+        if not self._running():
+            return
+        wall0, sim0 = self.sim_wall_base
+        target = sim0 + (now - wall0)
+        budget_end = time.perf_counter() + 0.8 * self.tick_period
+        while (self.sim.k + 1) * self.h <= target + 1e-12:
+            if not self._step_once():
+                return
+            if time.perf_counter() > budget_end:
+                break
+        if target - self.sim.t > self.tick_period:
+            self.overruns += 1
+            if target - self.sim.t > 1.0:  # hopelessly behind: drop the backlog, keep pacing
+                self.sim_wall_base = (now, self.sim.t)
+                self.get_logger().warning("simulation is more than 1 s behind wall time: "
+                                          "dropping the backlog", throttle_duration_sec=5.0)
+        if self.pub_clock is not None:
+            self._publish("clock", self.pub_clock, _clock(self._stamp()), self._stamp())
+
+    def _tick_fast(self) -> None:
+        self.tick_times.append(time.monotonic())
+        if not self._running():
+            return
+        end = time.perf_counter() + 0.01
+        while time.perf_counter() < end:
+            if not self._step_once():
+                break
+        self._publish("clock", self.pub_clock, _clock(self._stamp()), self._stamp())
+
+    def _advance_lockstep(self) -> None:
+        while self.lockstep_queue and self._running():
+            value = self.lockstep_queue.popleft()
+            changed = value != self.sim.held_heave_force
+            self.sim.set_heave_force(value)
+            if self.pending_wave is not None:
+                changed |= self.pending_wave != self.sim.held_wave_elevation
+                self.sim.set_wave_elevation(self.pending_wave)
+                self.pending_wave = None
+            if changed:
+                self._applied_changed()
+            for _ in range(self.steps_per_control):
+                if not self._step_once():
+                    return
+            stamp = self._stamp()
+            self._publish("clock", self.pub_clock, _clock(stamp), stamp)
+            out = self._outputs()
+            if out is not None:
+                self._publish("joint_states", self.pub_js, build_joint_state(out, stamp, self.frame_id),
+                              stamp)
+
+    # ------------------------------------------------------------------ outputs
+    def _outputs(self) -> Outputs | None:
+        try:
+            out = self.sim.outputs()
+        except IntegrationError as exc:
+            self._fail(str(exc))
+            return None
+        if not (np.all(np.isfinite(out.q)) and np.all(np.isfinite(out.axial_tension))
+                and np.all(np.isfinite(out.fairlead_force))):
+            self._fail("non-finite outputs (not published)")
+            return None
+        return out
+
+    def _publish_outputs(self, js: bool = False, mk: bool = False, tn: bool = False,
+                         force_all: bool = False) -> None:
+        out = self._outputs()
+        if out is None:
+            return
+        stamp = self._stamp()
+        if js or force_all:
+            self._publish("joint_states", self.pub_js, build_joint_state(out, stamp, self.frame_id),
+                          stamp)
+        if mk or force_all:
+            self._publish("cable_markers", self.pub_mk,
+                          build_markers(out, self.sim.model, stamp, self.frame_id), stamp)
+        if tn or force_all:
+            self._publish("fairlead_tension", self.pub_ft,
+                          build_wrench(-out.fairlead_force, stamp, self.frame_id), stamp)
+            if self.pub_af is not None:
+                self._publish("anchor_force", self.pub_af,
+                              build_wrench(-out.anchor_force, stamp, self.frame_id), stamp)
+            self._publish("line_tension", self.pub_lt, build_float_array(out.axial_tension), stamp)
+        problems = self.sim.health(out)
+        if problems:
+            self.get_logger().warning("; ".join(problems), throttle_duration_sec=5.0)
+        self.last_outputs = out
+
+    def diagnostics_values(self) -> dict[str, Any]:
+        """Key/values of the diagnostics status (also used by tests and the benchmark)."""
+        wall = time.monotonic() - self.start_wall
+        out = getattr(self, "last_outputs", None)
+        ticks = np.diff(np.array(self.tick_times)) if len(self.tick_times) > 2 else np.zeros(1)
+        v: dict[str, Any] = {
+            "sim_time": repr(self.sim.t),
+            "wall_time": repr(wall),
+            "real_time_factor": repr(self.sim.t / wall) if wall > 0 else "nan",
+            "step_cost_us": repr(1e6 * self.step_wall / max(self.steps_done, 1)),
+            "steps": str(self.sim.k),
+            "energy": repr(out.energy) if out is not None else "nan",
+            "fairlead_tension": repr(out.fairlead_tension) if out is not None else "nan",
+            "constraint_drift": repr(out.constraint_drift) if out is not None else "nan",
+            "slack": repr(out.slack) if out is not None else "nan",
+            "rejected_heave_force": str(self.rejected["heave_force"]),
+            "rejected_wave_elevation": str(self.rejected["wave_elevation"]),
+            "rejected_inputs": str(sum(self.rejected.values())),
+            "received_heave_force": str(self.received["heave_force"]),
+            "received_wave_elevation": str(self.received["wave_elevation"]),
+            "overruns": str(self.overruns),
+            "tick_interval_p50_ms": repr(1e3 * float(np.percentile(ticks, 50))),
+            "tick_interval_p99_ms": repr(1e3 * float(np.percentile(ticks, 99))),
+            "tick_interval_max_ms": repr(1e3 * float(ticks.max())),
+            "paused": str(self.paused),
+            "failure": self.failure,
+        }
+        for name, count in self.published.items():
+            v[f"published_{name}"] = str(count)
+        if self.recorder is not None:
+            st = self.recorder.stats
+            v["recorder_path"] = st["path"]
+            v["recorder_messages_written"] = str(st["messages_written"])
+            v["recorder_messages_dropped"] = str(st["messages_dropped"])
+            v["recorder_errors"] = str(st["errors"])
+            v["recorder_last_error"] = st["last_error"]
+        elif hasattr(self, "record_error"):
+            v["recorder_last_error"] = self.record_error
+        return v
+
+    def _publish_diagnostics(self) -> None:
+        v = self.diagnostics_values()
+        stamp = self._stamp()
+        msg = build_diagnostics(v, stamp)
+        st = msg.status[0]
+        st.name = f"{self.get_name()}: cable simulation"
+        if self.failure:
+            st.level, st.message = DiagnosticStatus.ERROR, f"stopped: {self.failure}"
+        elif (self.recorder is None and self._p("record")) or (
+                self.recorder is not None and self.recorder.stats["errors"]):
+            st.level, st.message = DiagnosticStatus.WARN, "recording failed; simulation running"
+        elif self.overruns or sum(self.rejected.values()):
+            st.level = DiagnosticStatus.WARN
+            st.message = f"{self.overruns} overruns, {sum(self.rejected.values())} rejected inputs"
+        else:
+            st.message = "paused" if self.paused else "running"
+        self._publish("diagnostics", self.pub_dg, msg, stamp)
+
+    def close(self) -> None:
+        """Close the recording (idempotent)."""
+        if self.recorder is not None:
+            self.recorder.close()
+
+
+def main(args: list[str] | None = None) -> int:
+    """Entry point of ``cable_sim_node`` (``ros2 run cable_sim cable_sim_node``)."""
+    os.environ.setdefault("AMENT_PREFIX_PATH", sys.prefix)
+    rclpy.init(args=args)
+    node = None
+    code = 0
+    try:
+        node = CableSimNode()
+        rclpy.spin(node)
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    except SystemExit as exc:
+        code = int(exc.code or 0)
+    except (ParameterError, ValueError, FileNotFoundError) as exc:
+        print(f"cable_sim_node: {exc}", file=sys.stderr)
+        code = 2
+    finally:
+        if node is not None:
+            node.close()
+            node.destroy_node()
+        rclpy.try_shutdown()
+    return code
+
+
+if __name__ == "__main__":
+    sys.exit(main())
