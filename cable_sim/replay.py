@@ -18,8 +18,9 @@ Everything here works on the file alone (``mcap`` + ``mcap_ros2`` decoder, no RO
 - ``cable_sim_replay --recover BAD.mcap FIXED.mcap`` repairs a file cut short by SIGKILL.
 
 Timing convention of ``applied_inputs``: a value recorded with log time ``t_ns`` is held from
-step ``k = round(t_ns / (h * 1e9))`` on (``h`` the recorded step); with another step ``h'`` it
-applies from ``round(t_ns / (h' * 1e9))``.
+step ``k = round(t_ns / (h * 1e9))`` on (``h`` the recorded step), i.e. over the step from k to
+k + 1; the outputs stamped k were published before it was applied (as the node does); with
+another step ``h'`` it applies from ``round(t_ns / (h' * 1e9))``.
 """
 
 from __future__ import annotations
@@ -664,9 +665,7 @@ def resimulate(
     sim.reset()
     while True:
         k = sim.k
-        for i in inputs.get(k, ()):
-            sim.set_heave_force(float(run.applied.v[i, 0]))
-            sim.set_wave_elevation(float(run.applied.v[i, 1]))
+        # as in the node: the outputs of step k are published before inputs stamped k are applied
         ev = events.get(k)
         if ev:
             out = sim.outputs()
@@ -676,6 +675,9 @@ def resimulate(
                     tip[i] = out.joint_positions[-1]
                 else:
                     fl[i] = -out.fairlead_force
+        for i in inputs.get(k, ()):
+            sim.set_heave_force(float(run.applied.v[i, 0]))
+            sim.set_wave_elevation(float(run.applied.v[i, 1]))
         if k >= k_end:
             break
         sim.step()
@@ -889,17 +891,6 @@ def record_headless(
         while True:
             k = sim.k
             stamp = int(round(k * h * 1e9))
-            changed = False
-            for name, value in sched.get(k, ()):
-                pub(name, Float64(data=value), stamp)
-                if name == "heave_force":
-                    sim.set_heave_force(value)
-                else:
-                    sim.set_wave_elevation(value)
-                changed = True
-            if changed:
-                pub("applied_inputs", build_float_array(
-                    [sim.held_heave_force, sim.held_wave_elevation]), stamp)
             want = [k % p_js == 0, k % p_mk == 0, k % p_tn == 0, k % p_dg == 0]
             if any(want):
                 out = sim.outputs()
@@ -923,6 +914,18 @@ def record_headless(
                         "recorder_messages_written": str(st["messages_written"]),
                         "recorder_messages_dropped": str(st["messages_dropped"]),
                     }, stamp), stamp)
+            # inputs received at step k (after its outputs were published, as in the node)
+            changed = False
+            for name, value in sched.get(k, ()):
+                pub(name, Float64(data=value), stamp)
+                if name == "heave_force":
+                    sim.set_heave_force(value)
+                else:
+                    sim.set_wave_elevation(value)
+                changed = True
+            if changed:
+                pub("applied_inputs", build_float_array(
+                    [sim.held_heave_force, sim.held_wave_elevation]), stamp)
             if k >= k_end:
                 break
             sim.step()

@@ -53,6 +53,11 @@ def test_arrays_match_the_recorded_physics(run, recorded):
     f = scene.input_function()
     k = np.searchsorted(run.t, 2.5)
     assert run.joint_effort[k, 0] == pytest.approx(f(run.t[k]).heave_force - 3000.0, abs=1e-9)
+    # as in the node, the outputs stamped at the step an input arrives still show the old value
+    k = np.searchsorted(run.t, 2.0)
+    assert run.t[k] == 2.0
+    assert run.joint_effort[k, 0] == pytest.approx(f(2.0).heave_force + 5000.0, abs=1e-9)
+    assert run.joint_effort[k + 1, 0] == pytest.approx(f(run.t[k + 1]).heave_force - 3000.0, abs=1e-9)
     assert run.fairlead_tension.max() > 100.0 and len(run.anchor) == len(run.fairlead)
 
 
