@@ -106,6 +106,7 @@ class CableSimNode(Node):
         for name, (default, desc) in READ_ONLY_NODE.items():
             self.declare_parameter(name, default, ParameterDescriptor(description=desc, read_only=True))
         self.add_on_set_parameters_callback(self._on_set_parameters)
+        self.add_post_set_parameters_callback(lambda params: self._rates_changed())
         self.clock_mode = self._p("clock_mode")
         if self.clock_mode not in CLOCK_MODES:
             raise ParameterError("clock_mode", self.clock_mode, " | ".join(CLOCK_MODES))
