@@ -1,0 +1,187 @@
+"""Independent reference helpers for the verification suite (issue #2).
+
+Everything here is written from MODEL.md and the :class:`~cable_sim.params.CableParams` fields
+alone: no function of ``cable_sim.model`` / ``cable_sim.dynamics`` is called, so the tests that
+use these helpers compare the implementation with a second, separately written computation.
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+
+class RefLine:
+    """Per-link physical constants of a line, from the parameters only (MODEL.md "Masses").
+
+    Attributes: ``l`` link lengths, ``m`` link masses, ``mw`` reduced (wet) masses, ``mc`` and
+    ``mcw`` the terminal mass and its reduced mass, ``M`` the platform mass, ``g`` gravity,
+    ``k``/``c`` joint constants k_1..k_n / c_1..c_n (index 0: fairlead pin), ``km``/``cm`` heave
+    spring and damper.
+    """
+
+    def __init__(self, p) -> None:
+        n = p.n_links
+        self.n = n
+        if p.link_lengths is not None:
+            self.l = np.array([float(v) for v in p.link_lengths])
+        else:
+            self.l = np.full(n, p.total_length / n)
+        d = np.broadcast_to(np.asarray(p.diameter, dtype=float), (n,))
+        self.d = np.array(d)
+        area = math.pi * self.d**2 / 4.0
+        if p.mass_per_length is not None:
+            self.m = p.mass_per_length * self.l
+        else:
+            self.m = np.broadcast_to(np.asarray(p.line_density, dtype=float), (n,)) * area * self.l
+        self.mw = self.m - p.water_density * area * self.l if p.buoyancy else self.m.copy()
+        if p.end_condition == "free":
+            self.mc = p.load_mass
+            self.mcw = p.load_mass - (p.water_density * p.load_volume if p.buoyancy else 0.0)
+        elif p.end_condition == "paper_anchor":
+            self.mc, self.mcw = p.paper_anchor_mass, 0.0
+        else:
+            self.mc, self.mcw = 0.0, 0.0
+        self.M = p.platform_mass
+        self.g = p.gravity
+        self.rho_w = p.water_density
+        k = np.zeros(n)
+        c = np.zeros(n)
+        for i in range(n):
+            if i == 0:
+                k[i], c[i] = p.pin_stiffness, p.pin_damping
+            elif p.stiffness_mode == "per_joint":
+                k[i], c[i] = p.joint_stiffness, p.joint_damping
+            else:
+                lbar = 0.5 * (self.l[i - 1] + self.l[i])
+                k[i], c[i] = p.bending_stiffness / lbar, p.bending_damping / lbar
+        self.k = k if p.joint_springs else np.zeros(n)
+        self.c = c if p.joint_dampers else np.zeros(n)
+        self.km = p.heave_stiffness if p.platform_spring else 0.0
+        self.cm = p.heave_damping if p.platform_damper else 0.0
+        self.wave = p.wave_coupling
+        self.drag = p.drag_model
+        self.gamma = p.paper_drag_gamma
+        self.cn, self.ct, self.U = p.drag_cn, p.drag_ct, p.current_speed
+
+    # ---- kinematics (explicit loops: deliberately unlike the vectorised implementation) -----
+    def joints(self, q: np.ndarray) -> np.ndarray:
+        """Joint points p_0..p_n, shape (n+1, 2)."""
+        p = np.zeros((self.n + 1, 2))
+        x, z = 0.0, q[0]
+        p[0] = (x, z)
+        for i in range(self.n):
+            x += self.l[i] * math.sin(q[1 + i])
+            z -= self.l[i] * math.cos(q[1 + i])
+            p[i + 1] = (x, z)
+        return p
+
+    def centre_jacobians(self, q: np.ndarray) -> np.ndarray:
+        """J[i] = d c_i / d q, shape (n, 2, n+1)."""
+        n = self.n
+        J = np.zeros((n, 2, n + 1))
+        for i in range(n):
+            J[i, 1, 0] = 1.0
+            for j in range(i + 1):
+                f = 0.5 if j == i else 1.0
+                J[i, 0, 1 + j] = f * self.l[j] * math.cos(q[1 + j])
+                J[i, 1, 1 + j] = f * self.l[j] * math.sin(q[1 + j])
+        return J
+
+    def end_jacobian(self, q: np.ndarray) -> np.ndarray:
+        """d p_n / d q, shape (2, n+1)."""
+        J = np.zeros((2, self.n + 1))
+        J[1, 0] = 1.0
+        J[0, 1:] = self.l * np.cos(q[1:])
+        J[1, 1:] = self.l * np.sin(q[1:])
+        return J
+
+    # ---- energies -------------------------------------------------------------------------
+    def kinetic(self, q: np.ndarray, qd: np.ndarray) -> float:
+        """T from the velocities of the platform, each link centre (+ spin) and the load."""
+        J = self.centre_jacobians(q)
+        T = 0.5 * self.M * qd[0] ** 2
+        for i in range(self.n):
+            v = J[i] @ qd
+            T += 0.5 * self.m[i] * (v @ v) + 0.5 * (self.m[i] * self.l[i] ** 2 / 12.0) * qd[1 + i] ** 2
+        ve = self.end_jacobian(q) @ qd
+        T += 0.5 * self.mc * (ve @ ve)
+        return float(T)
+
+    def potential(self, q: np.ndarray) -> float:
+        """V: wet weight at the centres and the load, heave spring, joint springs (relative angles)."""
+        p = self.joints(q)
+        V = 0.0
+        for i in range(self.n):
+            V += self.mw[i] * self.g * 0.5 * (p[i, 1] + p[i + 1, 1])
+        V += self.mcw * self.g * p[-1, 1]
+        V += 0.5 * self.km * q[0] ** 2
+        prev = 0.0
+        for i in range(self.n):
+            V += 0.5 * self.k[i] * (q[1 + i] - prev) ** 2
+            prev = q[1 + i]
+        return float(V)
+
+    def energy(self, q: np.ndarray, qd: np.ndarray) -> float:
+        """E = T + V."""
+        return self.kinetic(q, qd) + self.potential(q)
+
+    def potential_gradient(self, q: np.ndarray, h: float = 1e-6) -> np.ndarray:
+        """dV/dq by central differences of :meth:`potential` (O(h^2))."""
+        gr = np.zeros(q.size)
+        for i in range(q.size):
+            e = np.zeros(q.size)
+            e[i] = h
+            gr[i] = (self.potential(q + e) - self.potential(q - e)) / (2 * h)
+        return gr
+
+    # ---- non-conservative forces ----------------------------------------------------------
+    def morison_forces(self, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
+        """Morison force at each link centre (MODEL.md), shape (n, 2)."""
+        J = self.centre_jacobians(q)
+        F = np.zeros((self.n, 2))
+        for i in range(self.n):
+            v = J[i] @ qd - np.array([self.U, 0.0])
+            e = np.array([math.sin(q[1 + i]), -math.cos(q[1 + i])])
+            vt = (v @ e) * e
+            vn = v - vt
+            F[i] = -0.5 * self.rho_w * self.d[i] * self.l[i] * (
+                self.cn * np.linalg.norm(vn) * vn + math.pi * self.ct * np.linalg.norm(vt) * vt
+            )
+        return F
+
+    def drag_generalised(self, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
+        """Generalised drag force: paper formula, or Jacobian-transpose of the Morison forces."""
+        Q = np.zeros(self.n + 1)
+        if self.drag == "paper":
+            w = qd[1:]
+            Q[1:] = -self.gamma * self.l**2 / 4.0 * w * np.abs(w)
+        elif self.drag == "morison":
+            J = self.centre_jacobians(q)
+            F = self.morison_forces(q, qd)
+            for i in range(self.n):
+                Q += J[i].T @ F[i]
+        return Q
+
+    def power(self, q: np.ndarray, qd: np.ndarray, u: float, eta: float) -> float:
+        """dE/dt: heave force and wave-spring term, dampers (Rayleigh), drag (Q_drag . qd)."""
+        P = (u + (self.km * eta if self.wave else 0.0)) * qd[0] - self.cm * qd[0] ** 2
+        prev = 0.0
+        for i in range(self.n):
+            P -= self.c[i] * (qd[1 + i] - prev) ** 2
+            prev = qd[1 + i]
+        return float(P + self.drag_generalised(q, qd) @ qd)
+
+
+def rk4_step(f, t: float, y: np.ndarray, h: float) -> np.ndarray:
+    """One classical RK4 step, written here so a test can run without the package's projection."""
+    k1 = f(t, y)
+    k2 = f(t + h / 2, y + h / 2 * k1)
+    k3 = f(t + h / 2, y + h / 2 * k2)
+    k4 = f(t + h, y + h * k3)
+    return y + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
