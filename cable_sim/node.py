@@ -27,8 +27,10 @@ from rcl_interfaces.msg import (
     ParameterDescriptor,
     SetParametersResult,
 )
+from rclpy.exceptions import ParameterException
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
+from rclpy.parameter import Parameter
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
@@ -99,11 +101,13 @@ class CableSimNode(Node):
         super().__init__("cable_sim_node", **kwargs)
         self.scene = self._declare_scene()
         for name, (default, desc, rng) in NODE_PARAMS.items():
+            self._promote_int_override(name, default)
             d = ParameterDescriptor(description=desc)
             if rng is not None:
                 d.floating_point_range = [FloatingPointRange(from_value=rng[0], to_value=rng[1])]
             self.declare_parameter(name, default, d)
         for name, (default, desc) in READ_ONLY_NODE.items():
+            self._promote_int_override(name, default)
             self.declare_parameter(name, default, ParameterDescriptor(description=desc, read_only=True))
         self.add_on_set_parameters_callback(self._on_set_parameters)
         self.add_post_set_parameters_callback(lambda params: self._rates_changed())
@@ -139,7 +143,7 @@ class CableSimNode(Node):
         self.pub_ai = self.create_publisher(Float64MultiArray, "applied_inputs", qos)
         self.pub_clock = (self.create_publisher(Clock, "/clock", qos)
                           if self.clock_mode != "realtime" else None)
-        self.create_subscription(Float64, "heave_force", self._on_heave_force, qos)
+        self.sub_hf = self.create_subscription(Float64, "heave_force", self._on_heave_force, qos)
         self.create_subscription(Float64, "wave_elevation", self._on_wave_elevation, qos)
         self.create_service(Trigger, "reset", self._on_reset)
         self.create_service(SetBool, "pause", self._on_pause)
@@ -168,7 +172,14 @@ class CableSimNode(Node):
         self.start_wall = time.monotonic()
         self.sim_wall_base = (self.start_wall, 0.0)  # (wall, sim time) pair that paces real time
 
-        self._publish_outputs(force_all=True)
+        self.lockstep_started = self.clock_mode != "lockstep"
+        if self.lockstep_started:
+            self._publish_outputs(force_all=True)
+        else:  # joint_states(t0) waits for a controller (see _lockstep_start)
+            self._publish_outputs(mk=True, tn=True)
+            self._peers_since: float | None = None
+            self._waiting_since = time.monotonic()
+            self._start_timer = self.create_timer(0.05, self._lockstep_start)
         if self.clock_mode == "realtime":
             self.tick_period = min(0.02, 1.0 / self._p("joint_state_rate"))
             self.create_timer(self.tick_period, self._tick_realtime)
@@ -182,6 +193,16 @@ class CableSimNode(Node):
     # ------------------------------------------------------------------ parameters and scene
     def _p(self, name: str) -> Any:
         return self.get_parameter(name).value
+
+    def _promote_int_override(self, name: str, default: Any) -> None:
+        """An integer given for a double parameter (``-p step:=1``) is taken as that double."""
+        o = self._parameter_overrides.get(name)
+        if o is None or isinstance(default, bool) or isinstance(o.value, bool):
+            return
+        if isinstance(default, float) and isinstance(o.value, int):
+            self._parameter_overrides[name] = Parameter(name, value=float(o.value))
+        elif (isinstance(default, list) and o.type_ == Parameter.Type.INTEGER_ARRAY):
+            self._parameter_overrides[name] = Parameter(name, value=[float(x) for x in o.value])
 
     def _declare_scene(self):
         """Declare every scene key as a read-only parameter and build the Scene from them."""
@@ -212,6 +233,7 @@ class CableSimNode(Node):
                                     read_only=True)
             if key == "n_links":
                 d.integer_range = [IntegerRange(from_value=1, to_value=1_000_000, step=1)]
+            self._promote_int_override(key, default)
             values[key] = self.declare_parameter(key, default, d).value
         if values.get("link_lengths") in ([], None):
             values.pop("link_lengths", None)
@@ -307,6 +329,11 @@ class CableSimNode(Node):
         if not self._accept("heave_force", value, self._p("heave_force_limit")):
             return
         if self.clock_mode == "lockstep":
+            if not self.lockstep_started:  # before joint_states(t0): held, advances nothing
+                if value != self.sim.held_heave_force:
+                    self.sim.set_heave_force(value)
+                    self._applied_changed()
+                return
             self.lockstep_queue.append(value)
             self._advance_lockstep()
         elif value != self.sim.held_heave_force:
@@ -344,7 +371,8 @@ class CableSimNode(Node):
         self.pending_wave = None
         self.sim_wall_base = (time.monotonic(), 0.0)
         self._applied_changed()
-        self._publish_outputs(force_all=True)
+        # in lockstep before the controller is connected, joint_states(t0) still waits for it
+        self._publish_outputs(js=self.lockstep_started, mk=True, tn=True)
         response.success, response.message = True, "reset to the scene's initial state at t = 0"
         self.get_logger().info(response.message)
         return response
@@ -353,6 +381,8 @@ class CableSimNode(Node):
         if request.data != self.paused:
             self.paused = bool(request.data)
             self.sim_wall_base = (time.monotonic(), self.sim.t)
+            if not self.paused and self.clock_mode == "lockstep":
+                self._advance_lockstep()
         response.success = True
         response.message = "paused" if self.paused else "running"
         return response
@@ -425,6 +455,36 @@ class CableSimNode(Node):
             if not self._step_once():
                 break
         self._publish("clock", self.pub_clock, _clock(self._stamp()), self._stamp())
+
+    def _lockstep_start(self) -> None:
+        """Lockstep start: publish joint_states(t0) once a controller is connected both ways.
+
+        A message published before the subscriber is matched is lost, and the controller would
+        wait for it forever; so the node waits until ``joint_states`` has a subscriber and
+        ``heave_force`` a publisher, for 0.5 s (both directions of discovery), then publishes
+        the state at t = 0 and advances one control period per ``heave_force`` message after it.
+        """
+        now = time.monotonic()
+        if self.pub_js.get_subscription_count() == 0 or self.sub_hf.get_publisher_count() == 0:
+            self._peers_since = None
+            if now - self._waiting_since > 5.0:
+                self.get_logger().warning(
+                    "lockstep: waiting for a controller (a subscriber of joint_states and a "
+                    "publisher of heave_force)", throttle_duration_sec=10.0)
+            return
+        if self._peers_since is None:
+            self._peers_since = now
+        if now - self._peers_since < 0.5:
+            return
+        self._start_timer.cancel()
+        self.lockstep_started = True
+        stamp = self._stamp()
+        self._publish("clock", self.pub_clock, _clock(stamp), stamp)
+        out = self._outputs()
+        if out is not None:
+            self._publish("joint_states", self.pub_js, build_joint_state(out, stamp, self.frame_id), stamp)
+        self.get_logger().info("lockstep: controller connected; published joint_states at "
+                               f"t = {self.sim.t:g} s, advancing one control period per heave_force")
 
     def _advance_lockstep(self) -> None:
         while self.lockstep_queue and self._running():
@@ -561,7 +621,7 @@ def main(args: list[str] | None = None) -> int:
         pass
     except SystemExit as exc:
         code = int(exc.code or 0)
-    except (ParameterError, ValueError, FileNotFoundError) as exc:
+    except (ParameterError, ValueError, FileNotFoundError, ParameterException) as exc:
         print(f"cable_sim_node: {exc}", file=sys.stderr)
         code = 2
     finally:

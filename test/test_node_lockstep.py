@@ -3,7 +3,9 @@
 The node advances one control period per heave_force message, so the result does not depend on
 how fast the controller answers: a PD heave controller reduces the platform's heave amplitude
 under the control_experiment scene's regular wave, and two runs with the same inputs give
-bit-identical joint states.
+bit-identical joint states. The controller only answers joint states (it never publishes first):
+the node publishes joint_states(t0) once the controller is connected both ways, so a controller
+started after the node does not wait forever.
 """
 
 from __future__ import annotations
@@ -48,7 +50,6 @@ def closed_loop(tmp_path, gains: tuple[float, float] | None, tag: str) -> np.nda
     try:
         assert spin_until(ex, lambda: pub.get_subscription_count() > 0
                           and node.count_publishers("joint_states") > 0, 60), "node not found"
-        pub.publish(Float64(data=0.0))  # the first period's input; each joint state answers next
         assert spin_until(ex, lambda: len(states) > PERIODS, 120), len(states)
     finally:
         ex.shutdown()
@@ -57,6 +58,7 @@ def closed_loop(tmp_path, gains: tuple[float, float] | None, tag: str) -> np.nda
         code, out = stop(proc, signal.SIGINT)
         assert code == 0, out
     stamps = np.array([s[0] for s in states[: PERIODS + 1]])
+    assert stamps[0] == 0  # the first state the controller sees is the initial one
     np.testing.assert_array_equal(np.diff(stamps), 50_000_000)  # one state per control period
     return np.array([s[1] for s in states[: PERIODS + 1]])
 
@@ -85,3 +87,32 @@ def test_controller_reduces_heave_amplitude(runs):
 def test_same_inputs_bit_identical(runs):
     np.testing.assert_array_equal(runs["pd1"], runs["pd2"])
     assert not np.array_equal(runs["pd1"], runs["open"])
+
+
+def test_controller_started_after_the_node_gets_the_initial_state(tmp_path):
+    """Regression: joint_states(t0) published before any subscriber was lost and the node waited
+    for an answer forever. Now a controller that connects 2 s after the node still starts it."""
+    proc = start_node("control_experiment", "clock_mode:=lockstep", "record:=false", cwd=tmp_path)
+    ctx = init_context(DOMAIN)
+    node = rclpy.create_node("late_controller", context=ctx)
+    ex = SingleThreadedExecutor(context=ctx)
+    ex.add_node(node)
+    stamps: list[int] = []
+    try:
+        assert spin_until(ex, lambda: node.count_publishers("joint_states") > 0, 60), "node not found"
+        spin_until(ex, lambda: False, 2.0)  # the node is up and has long published its t0 outputs
+        pub = node.create_publisher(Float64, "heave_force", 10)
+
+        def on_js(m: JointState) -> None:
+            stamps.append(m.header.stamp.sec * 1_000_000_000 + m.header.stamp.nanosec)
+            pub.publish(Float64(data=0.0))
+
+        node.create_subscription(JointState, "joint_states", on_js, 10)
+        assert spin_until(ex, lambda: len(stamps) > 10, 30), stamps
+    finally:
+        ex.shutdown()
+        node.destroy_node()
+        rclpy.try_shutdown(context=ctx)
+        code, out = stop(proc, signal.SIGINT)
+        assert code == 0, out
+    assert stamps[:11] == [k * 50_000_000 for k in range(11)]
