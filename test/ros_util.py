@@ -16,9 +16,17 @@ REPO = Path(__file__).resolve().parent.parent
 CONFIG = REPO / "config"
 
 
+_USED: set[int] = set()
+
+
 def isolate_ros() -> int:
-    """Pick a random ROS domain for this test process and keep discovery on localhost."""
-    domain = random.randint(10, 100)
+    """Pick a random ROS domain for a test module and keep discovery on localhost.
+
+    Every module of one pytest process gets its own domain; pass it to :func:`start_node` (the
+    environment variable only holds the last module's choice once all modules are collected).
+    """
+    domain = random.choice([d for d in range(10, 101) if d not in _USED])
+    _USED.add(domain)
     os.environ["ROS_DOMAIN_ID"] = str(domain)
     os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
     os.environ.setdefault("AMENT_PREFIX_PATH", sys.prefix)
@@ -36,12 +44,15 @@ def node_executable() -> str:
     return found
 
 
-def start_node(scene: str, *overrides: str, cwd: Path | None = None) -> subprocess.Popen:
-    """Start cable_sim_node as a separate process with a scene file and -p overrides."""
+def start_node(scene: str, *overrides: str, domain: int | None = None,
+               cwd: Path | None = None) -> subprocess.Popen:
+    """Start cable_sim_node as a separate process in ROS domain ``domain`` (scene file + -p)."""
     args = [node_executable(), "--ros-args", "--params-file", str(CONFIG / f"{scene}.yaml")]
     for o in overrides:
         args += ["-p", o]
-    return subprocess.Popen(args, cwd=cwd, env=dict(os.environ), stdout=subprocess.PIPE,
+    env = dict(os.environ, ROS_DOMAIN_ID=str(domain if domain is not None else os.environ["ROS_DOMAIN_ID"]),
+               ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
+    return subprocess.Popen(args, cwd=cwd, env=env, stdout=subprocess.PIPE,
                             stderr=subprocess.STDOUT, text=True)
 
 

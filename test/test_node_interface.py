@@ -32,7 +32,7 @@ def run(tmp_path_factory):
     tmp = tmp_path_factory.mktemp("node")
     proc = start_node("control_experiment", f"joint_state_rate:={RATE}", "wave_source:=none",
                       "tension_rate:=10.0", f"record_path:={tmp / 'run.mcap'}",
-                      "input_timeout:=60.0", "heave_damping:=100000.0", cwd=tmp)
+                      "input_timeout:=60.0", "heave_damping:=100000.0", domain=DOMAIN, cwd=tmp)
     ctx = init_context(DOMAIN)
     node = rclpy.create_node("observer", context=ctx)
     got: dict[str, list] = {k: [] for k in ("js", "mk", "ft", "lt", "dg")}
@@ -102,7 +102,7 @@ def test_heave_force_moves_platform_by_spring_prediction(run):
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
 def test_signal_exits_zero(tmp_path, sig):
     proc = start_node("paper_free_fall", "clock_mode:=realtime", f"record_path:={tmp_path / 'r.mcap'}",
-                      cwd=tmp_path)
+                      domain=DOMAIN, cwd=tmp_path)
     time.sleep(6.0)
     assert proc.poll() is None, proc.communicate()[0]
     code, out = stop(proc, sig)

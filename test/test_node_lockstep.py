@@ -28,7 +28,7 @@ KP, KD = 150000.0, 200000.0  # N/m, N s/m
 def closed_loop(tmp_path, gains: tuple[float, float] | None, tag: str) -> np.ndarray:
     """Run the node in lockstep with a controller; return joint positions per period."""
     proc = start_node("control_experiment", "clock_mode:=lockstep", "control_period:=0.05",
-                      f"record_path:={tmp_path / (tag + '.mcap')}", cwd=tmp_path)
+                      f"record_path:={tmp_path / (tag + '.mcap')}", domain=DOMAIN, cwd=tmp_path)
     ctx = init_context(DOMAIN)
     node = rclpy.create_node(f"controller_{tag}", context=ctx)
     pub = node.create_publisher(Float64, "heave_force", 10)
@@ -92,7 +92,8 @@ def test_same_inputs_bit_identical(runs):
 def test_controller_started_after_the_node_gets_the_initial_state(tmp_path):
     """Regression: joint_states(t0) published before any subscriber was lost and the node waited
     for an answer forever. Now a controller that connects 2 s after the node still starts it."""
-    proc = start_node("control_experiment", "clock_mode:=lockstep", "record:=false", cwd=tmp_path)
+    proc = start_node("control_experiment", "clock_mode:=lockstep", "record:=false",
+                      domain=DOMAIN, cwd=tmp_path)
     ctx = init_context(DOMAIN)
     node = rclpy.create_node("late_controller", context=ctx)
     ex = SingleThreadedExecutor(context=ctx)

@@ -17,7 +17,7 @@ DOMAIN = isolate_ros()
 
 
 def test_default_scene_keeps_real_time_for_30_s(tmp_path):
-    proc = start_node("mooring_line", f"record_path:={tmp_path / 'rt.mcap'}", cwd=tmp_path)
+    proc = start_node("mooring_line", f"record_path:={tmp_path / 'rt.mcap'}", domain=DOMAIN, cwd=tmp_path)
     ctx = init_context(DOMAIN)
     node = rclpy.create_node("rt_observer", context=ctx)
     samples: list[tuple[float, float]] = []
