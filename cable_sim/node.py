@@ -84,6 +84,100 @@ READ_ONLY_NODE: dict[str, tuple[Any, str]] = {
 }
 STRUCTURAL = set(CableParams.field_names()) | set(SIM_DEFAULTS) | set(INPUT_DEFAULTS)
 
+#: Every scene key: (unit, description, allowed values). Read-only parameters of the node; the
+#: same text is in msg_configs/interface.yaml (test_node_interface_data checks they agree).
+SCENE_DOCS: dict[str, tuple[str, str, str]] = {
+    # cable (cable_sim.params.CableParams)
+    "n_links": ("", "number of rigid links n (n + 1 degrees of freedom)", "integer >= 1"),
+    "total_length": ("m", "unstretched cable length L (links L/n long)", "> 0"),
+    "link_lengths": ("m", "per-link lengths (override total_length)", "n values > 0"),
+    "diameter": ("m", "hydrodynamic and displacement diameter d (scalar or per link)", "> 0"),
+    "line_density": ("kg/m^3", "material density for the link mass rho_c pi d^2/4 l", "> 0"),
+    "mass_per_length": ("kg/m", "mass per length in air (overrides line_density)", "> 0"),
+    "stiffness_mode": ("", "per_joint: joint constants as given; bending: k = EI / mean link length",
+                       "per_joint | bending"),
+    "joint_stiffness": ("N m/rad", "joint spring k_i, joints 2..n (per_joint mode)", ">= 0"),
+    "joint_damping": ("N m s/rad", "joint damper c_i, joints 2..n (per_joint mode)", ">= 0"),
+    "bending_stiffness": ("N m^2", "bending stiffness EI (bending mode)", ">= 0"),
+    "bending_damping": ("N m^2 s", "bending damping (bending mode)", ">= 0"),
+    "pin_stiffness": ("N m/rad", "fairlead pin spring relative to the vertical (0: free pin)", ">= 0"),
+    "pin_damping": ("N m s/rad", "fairlead pin damper", ">= 0"),
+    "platform_mass": ("kg", "platform mass M", "> 0"),
+    "heave_stiffness": ("N/m", "hydrostatic heave stiffness k_m (acts on eta - z_m)", ">= 0"),
+    "heave_damping": ("N s/m", "platform heave damping c_m", ">= 0"),
+    "heave_locked": ("", "hold the platform at its initial height (fixed top)", "true | false"),
+    "load_mass": ("kg", "terminal load mass m_c (free end)", ">= 0"),
+    "load_volume": ("m^3", "terminal load displaced volume V_c", ">= 0"),
+    "water_density": ("kg/m^3", "water density rho_w", "> 0"),
+    "gravity": ("m/s^2", "gravitational acceleration g", ">= 0"),
+    "drag_model": ("", "hydrodynamic drag: none, the paper's angular drag, or Morison",
+                   "none | paper | morison"),
+    "paper_drag_gamma": ("kg/m", "gamma_i of the paper's drag", ">= 0"),
+    "drag_cn": ("", "Morison normal drag coefficient C_dn", ">= 0"),
+    "drag_ct": ("", "Morison tangential drag coefficient C_dt", ">= 0"),
+    "current_speed": ("m/s", "uniform current along +x (Morison drag)", "finite"),
+    "end_condition": ("", "free load, exact anchor constraint, or the paper's 8e8 kg emulation",
+                      "free | anchored | paper_anchor"),
+    "anchor_x": ("m", "anchor position x", "finite"),
+    "anchor_z": ("m", "anchor position z (z up, still water at 0)", "finite"),
+    "paper_anchor_mass": ("kg", "mass of the emulated anchor (paper_anchor)", "> 0"),
+    "buoyancy": ("", "physics term switch: buoyancy", "true | false"),
+    "joint_springs": ("", "physics term switch: joint springs", "true | false"),
+    "joint_dampers": ("", "physics term switch: joint dampers", "true | false"),
+    "platform_spring": ("", "physics term switch: heave spring", "true | false"),
+    "platform_damper": ("", "physics term switch: heave damper", "true | false"),
+    "wave_coupling": ("", "physics term switch: heave spring acts on the wave elevation",
+                      "true | false"),
+    "constraint_stiffness": ("1/s", "Baumgarte natural frequency of the anchor constraint", "> 0"),
+    # simulation (cable_sim.scenes.SIM_DEFAULTS)
+    "scene_name": ("", "scene name (set by scene files)", ""),
+    "description": ("", "one-line description of the scene", ""),
+    "integrator": ("", "time integrator", "rk4 | symplectic_euler | dop853 | radau | rk45 | "
+                   "the implicit schemes of cable_sim.implicit"),
+    "step": ("s", "physics step h (simulated time is k h)", "> 0"),
+    "kernel": ("", "forward-dynamics kernel: O(n) compiled or dense reference", "fast | dense"),
+    "duration": ("s", "scene length (0: run until stopped); see exit_at_end", ">= 0"),
+    "initial_state": ("", "start at static equilibrium or as a straight line at an angle",
+                      "static | angle"),
+    "initial_angle_deg": ("deg", "initial link angle from the downward vertical (angle)", "finite"),
+    "initial_heave": ("m", "initial platform heave z_m (angle)", "finite"),
+    "heave_force_source": ("", "built-in heave force, added to the heave_force topic",
+                           "none | topic | constant | sine | regular_wave | jonswap"),
+    "wave_source": ("", "built-in wave elevation, added to the wave_elevation topic",
+                    "none | topic | constant | sine | regular_wave | jonswap"),
+    "position_tolerance": ("m", "with tension_tolerance > 0: choose n, integrator, step to meet it",
+                           ">= 0 (0: off)"),
+    "tension_tolerance": ("", "fairlead tension tolerance relative to its peak (autoselect)",
+                          ">= 0 (0: off)"),
+    "tolerance_horizon": ("s", "simulated time over which autoselect measures errors", "> 0"),
+    # built-in input signals (cable_sim.inputs.make_signal)
+    "heave_force_value": ("N", "constant heave force (source constant)", "finite"),
+    "heave_force_amplitude": ("N", "heave force amplitude (sine, regular_wave)", "finite"),
+    "heave_force_period": ("s", "heave force period (sine, regular_wave)", "> 0"),
+    "heave_force_phase": ("rad", "heave force phase (sine, regular_wave)", "finite"),
+    "heave_force_ramp": ("s", "half-cosine start ramp of the heave force", ">= 0"),
+    "wave_value": ("m", "constant wave elevation (source constant)", "finite"),
+    "wave_amplitude": ("m", "wave amplitude (sine, regular_wave)", "finite"),
+    "wave_period": ("s", "wave period (sine, regular_wave)", "> 0"),
+    "wave_phase": ("rad", "wave phase (sine, regular_wave)", "finite"),
+    "wave_ramp": ("s", "half-cosine start ramp of the wave", ">= 0"),
+    "wave_hs": ("m", "significant wave height H_s (jonswap)", ">= 0"),
+    "wave_tp": ("s", "peak period T_p (jonswap)", "> 0"),
+    "wave_gamma": ("", "JONSWAP peak enhancement factor", ">= 1"),
+    "wave_seed": ("", "seed of the JONSWAP random phases (reproducible sea state)", "integer"),
+    "frame_interval": ("s", "interval between drawn frames in replay plots", "> 0"),
+}
+
+
+def _scene_descriptor(key: str) -> ParameterDescriptor:
+    """Read-only descriptor of a scene key: description with unit, allowed values."""
+    unit, desc, allowed = SCENE_DOCS.get(key, ("", "scene key (passed through to the scene)", ""))
+    d = ParameterDescriptor(description=f"{desc} [{unit}]" if unit else desc,
+                            additional_constraints=allowed, read_only=True)
+    if key == "n_links":
+        d.integer_range = [IntegerRange(from_value=1, to_value=1_000_000, step=1)]
+    return d
+
 
 def _check_input(value: float, limit: float) -> str | None:
     """Why an input value is rejected (None if accepted)."""
@@ -207,10 +301,11 @@ class CableSimNode(Node):
     def _declare_scene(self):
         """Declare every scene key as a read-only parameter and build the Scene from them."""
         self.declare_parameter("scene", "", ParameterDescriptor(
-            description=f"scene name ({', '.join(available_scenes())}) or YAML path whose values "
-                        "are the defaults; other parameters override them", read_only=True))
-        self.declare_parameter("scene_name", "", ParameterDescriptor(
-            description="scene name (set by scene files)", read_only=True))
+            description="shipped scene name or YAML path whose values are the defaults (empty: "
+                        "scene_name of a --params-file, else mooring_line); other parameters "
+                        "override them", additional_constraints=", ".join(available_scenes()),
+            read_only=True))
+        self.declare_parameter("scene_name", "", _scene_descriptor("scene_name"))
         name = self._p("scene") or self._p("scene_name") or DEFAULT_SCENE
         try:
             base = read_parameter_file(scene_path(name))
@@ -223,18 +318,18 @@ class CableSimNode(Node):
             defaults[key] = float(defaults[key][0])
         defaults.update(SIM_DEFAULTS)
         defaults.update(INPUT_DEFAULTS)
-        defaults.update(base)
+        for key, v in base.items():  # `pin_stiffness: 0` in a scene file is still a double
+            ref = defaults.get(key)
+            if isinstance(ref, float) and isinstance(v, int) and not isinstance(v, bool):
+                v = float(v)
+            defaults[key] = v
         defaults.pop("scene_name", None)
         values: dict[str, Any] = {"scene_name": self._p("scene_name") or base.get("scene_name", name)}
         for key, default in defaults.items():
             if isinstance(default, (list, tuple)):
                 default = [float(x) for x in default]
-            d = ParameterDescriptor(description=f"scene key {key} (see README, Scenes)",
-                                    read_only=True)
-            if key == "n_links":
-                d.integer_range = [IntegerRange(from_value=1, to_value=1_000_000, step=1)]
             self._promote_int_override(key, default)
-            values[key] = self.declare_parameter(key, default, d).value
+            values[key] = self.declare_parameter(key, default, _scene_descriptor(key)).value
         if values.get("link_lengths") in ([], None):
             values.pop("link_lengths", None)
         return scene_from_dict(values)
