@@ -84,6 +84,7 @@ def test_every_output_arrives(run):
 def test_joint_state_rate_within_10_percent(run):
     wall = np.array(run["js_wall"][5:])
     rate = (len(wall) - 1) / (wall[-1] - wall[0])
+    print(f"joint_states: {rate:.2f} Hz received (configured {RATE:g} Hz)")
     assert abs(rate - RATE) <= 0.1 * RATE, rate
 
 
@@ -95,6 +96,7 @@ def test_heave_force_moves_platform_by_spring_prediction(run):
     # change; heave damping is raised to 1e5 N s/m, about 0.9 of critical, so the platform
     # settles within the 6 s)
     shift = z_after.mean() - z_before.mean()
+    print(f"heave shift under {FORCE:g} N: {shift:.4f} m (spring prediction {FORCE / 150000.0:.4f} m)")
     assert abs(shift - FORCE / 150000.0) < 0.1, shift
     assert run["got"]["js"][-1].effort[0] == pytest.approx(FORCE)
 
