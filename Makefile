@@ -24,7 +24,7 @@ DEPS_STAMP := $(VENV)/.deps-installed
 PKG_STAMP  := $(VENV)/.pkg-installed
 SOURCES    := setup.py setup.cfg package.xml $(wildcard cable_sim/*.py config/*.yaml msg_configs/*)
 
-.PHONY: run test lint bench figures clean venv
+.PHONY: run test lint bench figures realtime-bench clean venv
 
 venv: $(PKG_STAMP)
 
@@ -48,8 +48,24 @@ test: $(PKG_STAMP)
 lint: $(PKG_STAMP)
 	$(VENV)/bin/ruff check cable_sim test
 
+# Speed against error (optional MuJoCo comparison: installs the bench extra).
 bench: $(PKG_STAMP)
+	$(PY) -m pip install -q mujoco==4.0.0
 	$(VENV)/bin/cable_sim_bench $(ARGS)
+
+# Node tick jitter in real time (results/realtime/).
+realtime-bench: $(PKG_STAMP)
+	$(PY) -m cable_sim.realtime_bench --seconds 30 --record
+
+# README figures: the paper's anchored scene run by the node (fast clock), then the replay tool.
+figures: $(PKG_STAMP)
+	mkdir -p docs results/recording
+	ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST $(VENV)/bin/cable_sim_node --ros-args \
+	    --params-file config/paper_anchored_forced.yaml -p clock_mode:=fast -p duration:=15.5 \
+	    -p exit_at_end:=true -p record_path:=results/recording/paper_anchored_forced.mcap
+	$(VENV)/bin/cable_sim_replay results/recording/paper_anchored_forced.mcap \
+	    --frames docs/frames_paper_anchored.png --tension docs/tension_paper_anchored.png \
+	    --gif results/recording/paper_anchored_forced.gif --resim
 
 clean:
 	rm -rf $(VENV) build *.egg-info
