@@ -27,6 +27,7 @@ from rcl_interfaces.msg import (
     ParameterDescriptor,
     SetParametersResult,
 )
+from rclpy._rclpy_pybind11 import RCLError
 from rclpy.exceptions import ParameterException
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
@@ -395,6 +396,8 @@ class CableSimNode(Node):
         return int(round(self.sim.k * self.h * 1e9))
 
     def _publish(self, name: str, pub, msg, stamp: int) -> None:
+        if not self.context.ok():  # a timer firing while a signal shuts rclpy down
+            return
         pub.publish(msg)
         self.published[name] += 1
         if self.recorder is not None:
@@ -703,6 +706,47 @@ class CableSimNode(Node):
             self.recorder.close()
 
 
+def _cli_parameters(argv: list[str]) -> list[tuple[str, str]]:
+    """``(name, value text)`` of every ``-p name:=value`` in the ROS arguments of ``argv``."""
+    out, ros = [], False
+    it = iter(argv)
+    for tok in it:
+        if tok == "--ros-args":
+            ros = True
+        elif tok == "--":
+            ros = False
+        elif ros and tok in ("-p", "--param"):
+            item = next(it, "")
+            if ":=" in item:
+                name, _, text = item.partition(":=")
+                out.append((name.split(":")[-1], text))  # node-name prefix "node:name" allowed
+    return out
+
+
+def ignored_cli_parameters(node: Node, argv: list[str]) -> list[str]:
+    """Command-line values ROS dropped without a word.
+
+    With ``--params-file`` holding ``n_links: 8``, rcl silently keeps the file's integer when
+    ``-p n_links:=2.0`` gives a double, so the run would quietly use 8 links. Returns one message
+    per such parameter (an integer for a double is fine: the node takes it as that double).
+    """
+    problems = []
+    for name, text in _cli_parameters(argv):
+        if not node.has_parameter(name):
+            continue
+        actual = node.get_parameter(name).value
+        if isinstance(actual, bool) or not isinstance(actual, int):
+            continue
+        try:
+            given = float(text)
+        except ValueError:
+            continue
+        if given != actual or not text.lstrip("+-").isdigit():
+            problems.append(f"parameter '{name}' = {text} is not an integer; '{name}' is an integer "
+                            f"parameter (write {name}:={int(given) if given.is_integer() else '<integer>'})")
+    return problems
+
+
 def main(args: list[str] | None = None) -> int:
     """Entry point of ``cable_sim_node`` (``ros2 run cable_sim cable_sim_node``)."""
     os.environ.setdefault("AMENT_PREFIX_PATH", sys.prefix)
@@ -711,11 +755,20 @@ def main(args: list[str] | None = None) -> int:
     code = 0
     try:
         node = CableSimNode()
-        rclpy.spin(node)
+        problems = ignored_cli_parameters(node, sys.argv if args is None else args)
+        if problems:
+            print("cable_sim_node: " + "; ".join(problems), file=sys.stderr)
+            code = 2
+        else:
+            rclpy.spin(node)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     except SystemExit as exc:
         code = int(exc.code or 0)
+    except RCLError:
+        if rclpy.ok():
+            raise
+        # a callback in flight when a signal shut rclpy down: the shutdown itself is clean
     except (ParameterError, ValueError, FileNotFoundError, ParameterException) as exc:
         print(f"cable_sim_node: {exc}", file=sys.stderr)
         code = 2

@@ -201,3 +201,34 @@ def test_duration_and_exit_at_end_exit_zero_with_closed_recording(tmp_path):
               for cid, n in summary.statistics.channel_message_counts.items()}
     # rates in simulated time, t = 0 .. 3 s inclusive: joint states 50 Hz, markers 10 Hz
     assert counts["/joint_states"] == 151 and counts["/cable_markers"] == 31, counts
+
+
+def _run_to_end(tmp_path, *overrides: str) -> tuple[int, str]:
+    proc = start_node("control_experiment", "clock_mode:=fast", "duration:=0.2", "exit_at_end:=true",
+                      *overrides, domain=DOMAIN, cwd=tmp_path)
+    try:
+        out, _ = proc.communicate(timeout=120)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        raise
+    return proc.returncode, out
+
+
+def test_double_for_integer_parameter_on_command_line_is_refused(tmp_path):
+    # rcl keeps the params file's `n_links: 8` and drops `-p n_links:=2.0` without a word
+    code, out = _run_to_end(tmp_path, "n_links:=2.0", "record:=false")
+    assert code == 2, out
+    assert "n_links" in out and "integer" in out and "Traceback" not in out, out
+
+
+def test_integer_for_double_parameter_on_command_line_is_taken(tmp_path):
+    path = tmp_path / "int.mcap"
+    code, out = _run_to_end(tmp_path, "heave_damping:=70000", f"record_path:={path}")
+    assert code == 0, out
+    import json
+
+    from mcap.reader import make_reader
+
+    with open(path, "rb") as f:
+        meta = {m.name: m.metadata for m in make_reader(f).iter_metadata()}
+    assert json.loads(meta["scene"]["json"])["heave_damping"] == 70000.0
