@@ -19,6 +19,7 @@ Keys that are :class:`~cable_sim.params.CableParams` fields build the physics; t
 
 from __future__ import annotations
 
+import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -58,12 +59,14 @@ SIM_DEFAULTS: dict[str, Any] = {
 
 
 def _installed_config_dir() -> Path | None:
+    """share/cable_sim/config of the install: from the ament index, else under sys.prefix."""
     try:
         from ament_index_python.packages import get_package_share_directory
 
         return Path(get_package_share_directory("cable_sim")) / "config"
     except Exception:  # noqa: BLE001 - not in an ament environment
-        return None
+        d = Path(sys.prefix) / "share" / "cable_sim" / "config"
+        return d if d.is_dir() else None
 
 
 def scene_path(name_or_path: str | Path) -> Path:
