@@ -131,13 +131,18 @@ class RefLine:
         """E = T + V."""
         return self.kinetic(q, qd) + self.potential(q)
 
-    def potential_gradient(self, q: np.ndarray, h: float = 1e-6) -> np.ndarray:
-        """dV/dq by central differences of :meth:`potential` (O(h^2))."""
-        gr = np.zeros(q.size)
-        for i in range(q.size):
-            e = np.zeros(q.size)
-            e[i] = h
-            gr[i] = (self.potential(q + e) - self.potential(q - e)) / (2 * h)
+    def potential_gradient(self, q: np.ndarray) -> np.ndarray:
+        """dV/dq: weights mapped by the centre/end Jacobians, plus the spring gradients."""
+        J = self.centre_jacobians(q)
+        gr = np.zeros(self.n + 1)
+        for i in range(self.n):
+            gr += self.mw[i] * self.g * J[i, 1]
+        gr += self.mcw * self.g * self.end_jacobian(q)[1]
+        gr[0] += self.km * q[0]
+        phi = np.diff(np.concatenate([[0.0], q[1:]]))  # relative joint angles
+        tau = self.k * phi
+        gr[1:] += tau
+        gr[1:-1] -= tau[1:]
         return gr
 
     # ---- non-conservative forces ----------------------------------------------------------
