@@ -103,7 +103,7 @@ def test_node_recording_opens_with_both_readers(tmp_path):
 
     path = tmp_path / "run.mcap"
     ctx = Context()
-    rclpy.init(context=ctx)
+    rclpy.init(context=ctx, domain_id=int(DOMAIN))
     live: dict[str, list[bytes]] = {"/joint_states": [], "/line_tension": []}
     try:
         node = rclpy.create_node("recording_listener", context=ctx)
@@ -238,7 +238,7 @@ def test_lockstep_run_replays_bit_for_bit_from_its_recording(tmp_path):
                             env=node_env(), stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
                             cwd=ROOT)
     ctx = Context()
-    rclpy.init(context=ctx)
+    rclpy.init(context=ctx, domain_id=int(DOMAIN))
     sent = []
     try:
         node = rclpy.create_node("lockstep_controller", context=ctx)
