@@ -12,6 +12,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
@@ -190,3 +191,26 @@ def rk4_step(f, t: float, y: np.ndarray, h: float) -> np.ndarray:
     k3 = f(t + h / 2, y + h / 2 * k2)
     k4 = f(t + h, y + h * k3)
     return y + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+
+
+@pytest.fixture(scope="session")
+def anchored_scene_run():
+    """The paper's anchored, forced scene run end to end (15.5 s) with its own integrator and
+    step on the dense kernel, one ``Integrator.step`` per sample (shared by test_anchor_drift
+    and test_scenes_run). Returns a dict with scene, model, system, t, y."""
+    from cable_sim.scenes import load_scene
+
+    scene = load_scene("paper_anchored_forced", {"kernel": "dense"})
+    model = scene.model()
+    system = scene.system(model=model)
+    integ = scene.integrator(system)
+    h = integ.h
+    steps = int(round(float(scene.sim["duration"]) / h))
+    y = scene.initial_state(model)
+    ys = np.empty((steps + 1, y.size))
+    ys[0] = y
+    for k in range(steps):
+        y = integ.step(k * h, y, h)
+        ys[k + 1] = y
+    return {"scene": scene, "model": model, "system": system, "integrator": integ,
+            "t": np.arange(steps + 1) * h, "y": ys}
