@@ -265,3 +265,44 @@ def test_n5_derivation_is_fast() -> None:
     t0 = time.perf_counter()
     derive(5)
     assert time.perf_counter() - t0 < 10.0
+
+
+@pytest.mark.parametrize("end", ["free", "anchored"])
+@pytest.mark.parametrize("drag", ["paper", "morison"])
+def test_joint_forces_satisfy_newton_euler(drag: str, end: str) -> None:
+    """The tension recursion (translational Newton equations, from the bottom) is consistent with
+    the Lagrangian accelerations through the two equations it does not use: each link's moment
+    equation about its centre, (m l^2/12) thdd_i = -(l_i/2) t_i . (F_{i-1} + F_i) + joint
+    spring/damper torques + paper-drag torque (t_i = (cos, sin) theta_i; Morison drag and the
+    weights act at the centre), and the platform's heave equation
+    M zdd = u + k_m (eta - z) - c_m zd - F_0,z."""
+    n = 5
+    rng = np.random.default_rng(900 + len(drag) + len(end))
+    params = make_params(n, rng, drag_model=drag, end_condition=end, anchor_x=1.0, anchor_z=-4.0,
+                         heave_stiffness=900.0, heave_damping=150.0)
+    model = CableModel.from_params(params)
+    ref = RefLine(params)
+    fK, fC = spring_reference(n)
+    inp = Inputs(heave_force=-321.0, wave_elevation=0.2)
+    for _ in range(3):
+        q, qd = random_state(n, rng)
+        if end == "anchored":  # a state on the constraint: put the anchor where the end is
+            model = CableModel.from_params(params.replace(
+                anchor_x=float(ref.joints(q)[-1, 0]), anchor_z=float(ref.joints(q)[-1, 1])))
+            J = ref.end_jacobian(q)
+            qd = qd - J.T @ np.linalg.solve(J @ J.T, J @ qd)
+        qdd, lam = dynamics.forward_dynamics(model, q, qd, inp)
+        F = dynamics.joint_forces(model, q, qd, qdd, lam)
+        th = q[1:]
+        t = np.stack([np.cos(th), np.sin(th)], axis=1)
+        tau = -np.ravel(fK(q, ref.k, ref.km))[1:] - np.ravel(fC(qd, ref.c, ref.cm))[1:]
+        if drag == "paper":
+            tau = tau + ref.drag_generalised(q, qd)[1:]
+        moment = -(ref.l / 2) * np.sum(t * (F[:-1] + F[1:]), axis=1) + tau
+        inertia = ref.m * ref.l**2 / 12 * qdd[1:]
+        scale = np.max(np.abs(ref.l / 2 * np.linalg.norm(F[:-1], axis=1))) + np.max(np.abs(tau))
+        np.testing.assert_allclose(inertia, moment, rtol=0, atol=RTOL * scale)
+        heave = (inp.heave_force + ref.km * (inp.wave_elevation - q[0]) - ref.cm * qd[0] - F[0, 1])
+        assert ref.M * qdd[0] == pytest.approx(heave, abs=RTOL * (np.abs(F).max() + ref.km * 5))
+        if end == "anchored":
+            np.testing.assert_allclose(F[-1], -lam, rtol=1e-12)
