@@ -89,6 +89,23 @@ def _hessian(model: CableModel, q: np.ndarray, lam: np.ndarray) -> np.ndarray:
     return H
 
 
+def _check_stable(model: CableModel, q: np.ndarray, lam: np.ndarray, s: int) -> None:
+    """Raise StaticsError unless the Hessian of the Lagrangian is positive definite on the
+    constraint's tangent space (a rest state, not an unstable stationary point)."""
+    H = _hessian(model, q, lam)[s:, s:]
+    if model.constrained:
+        J = dynamics.constraint_jacobian(model, q)[:, s:]
+        _, sv, vt = np.linalg.svd(J)
+        Z = vt[int(np.sum(sv > 1e-12 * sv.max())):].T  # null space of J
+        H = Z.T @ H @ Z
+    eig = np.linalg.eigvalsh(0.5 * (H + H.T))
+    if eig.size and eig.min() <= -1e-9 * max(np.abs(eig).max(), 1.0):
+        raise StaticsError(
+            f"Newton converged to an unstable equilibrium (lowest reduced stiffness "
+            f"{eig.min():.3g}); start from another guess"
+        )
+
+
 def static_equilibrium(
     model: CableModel,
     inputs: Inputs = NO_INPUT,
@@ -137,9 +154,16 @@ def static_equilibrium(
     q = _initial_guess(model, z_top) if q0 is None else np.array(q0, dtype=float)
     if model.heave_locked:
         q[0] = z_top
-    lam = np.zeros(2)
     qext = dynamics.external_force(model, inputs)
     m = 2 if model.constrained else 0
+    lam = np.zeros(2)
+    if m:
+        # Start the anchor reaction from the least-squares force balance at the guess: with
+        # lam = 0 the first Hessian lacks the line's tension stiffness and Newton can jump to
+        # an unstable stationary point.
+        r0 = dynamics.gravity_vector(model, q) + dynamics.elastic_force(model, q) - qext
+        J0 = dynamics.constraint_jacobian(model, q)[:, s:]
+        lam = np.linalg.lstsq(J0.T, r0[s:], rcond=None)[0]
     for _ in range(max_iter):
         r = dynamics.gravity_vector(model, q) + dynamics.elastic_force(model, q) - qext
         J = dynamics.constraint_jacobian(model, q)
@@ -166,6 +190,7 @@ def static_equilibrium(
         if m:
             lam += alpha * delta[H.shape[0]:]
         if np.max(np.abs(res)) < tol and alpha == 1.0:
+            _check_stable(model, q, lam, s)
             return q, lam
     raise StaticsError(
         f"Newton did not converge in {max_iter} iterations (residual {np.max(np.abs(res)):.3g}, "
