@@ -40,15 +40,15 @@ from std_srvs.srv import SetBool, Trigger
 from visualization_msgs.msg import MarkerArray
 
 from .integrators import IntegrationError
-from .params import CableParams, ParameterError
-from .replay import (
-    _clock,
+from .messages import (
     build_diagnostics,
     build_float_array,
     build_joint_state,
     build_markers,
     build_wrench,
+    clock_message,
 )
+from .params import CableParams, ParameterError
 from .runner import Outputs, Simulation
 from .scenes import SIM_DEFAULTS, available_scenes, read_parameter_file, scene_from_dict, scene_path
 
@@ -542,7 +542,7 @@ class CableSimNode(Node):
                 self.get_logger().warning("simulation is more than 1 s behind wall time: "
                                           "dropping the backlog", throttle_duration_sec=5.0)
         if self.pub_clock is not None:
-            self._publish("clock", self.pub_clock, _clock(self._stamp()), self._stamp())
+            self._publish("clock", self.pub_clock, clock_message(self._stamp()), self._stamp())
 
     def _tick_fast(self) -> None:
         self.tick_times.append(time.monotonic())
@@ -552,7 +552,7 @@ class CableSimNode(Node):
         while time.perf_counter() < end:
             if not self._step_once():
                 break
-        self._publish("clock", self.pub_clock, _clock(self._stamp()), self._stamp())
+        self._publish("clock", self.pub_clock, clock_message(self._stamp()), self._stamp())
 
     def _lockstep_start(self) -> None:
         """Lockstep start: publish joint_states(t0) once a controller is connected both ways.
@@ -577,7 +577,7 @@ class CableSimNode(Node):
         self._start_timer.cancel()
         self.lockstep_started = True
         stamp = self._stamp()
-        self._publish("clock", self.pub_clock, _clock(stamp), stamp)
+        self._publish("clock", self.pub_clock, clock_message(stamp), stamp)
         out = self._outputs()
         if out is not None:
             self._publish("joint_states", self.pub_js, build_joint_state(out, stamp, self.frame_id), stamp)
@@ -599,7 +599,7 @@ class CableSimNode(Node):
                 if not self._step_once():
                     return
             stamp = self._stamp()
-            self._publish("clock", self.pub_clock, _clock(stamp), stamp)
+            self._publish("clock", self.pub_clock, clock_message(stamp), stamp)
             out = self._outputs()
             if out is not None:
                 self._publish("joint_states", self.pub_js, build_joint_state(out, stamp, self.frame_id),

@@ -29,14 +29,14 @@ from typing import Any
 
 import numpy as np
 
-from .replay import (
+from .messages import (
     build_diagnostics,
     build_float_array,
     build_joint_state,
     build_markers,
     build_wrench,
-    record_headless,
 )
+from .replay import record_headless
 from .runner import Simulation
 from .scenes import load_scene
 

@@ -322,7 +322,7 @@ def test_recorded_bytes_equal_the_bytes_a_subscriber_receives():
     from rclpy.context import Context
     from visualization_msgs.msg import Marker, MarkerArray
 
-    from cable_sim.replay import build_diagnostics
+    from cable_sim.messages import build_diagnostics
 
     os.environ["ROS_DOMAIN_ID"] = str(random.randint(1, 100))
     os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
