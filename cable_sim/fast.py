@@ -77,6 +77,24 @@ _TINY = 1e-150
 _EPS = float(np.finfo(np.float64).eps)
 
 
+@nb.njit(cache=True, inline="always")
+def _articulated_inertia(
+    mi: float, x: float, y: float, z: float, xp: float, c: float, s: float
+) -> tuple[float, float, float]:
+    """New articulated inertia A' = m I + A - h h^T / D of a link, world-frame (xx, xz, zz).
+
+    Assembled in the link frame (t, e) to avoid cancellation in the t direction,
+    A' = a_tt t t^T + a_te (t e^T + e t^T) + a_ee e e^T, then rotated to the world frame.
+    """
+    a_tt = mi * (x / 3.0 + mi / 12.0) / xp
+    a_te = -y * (mi / 6.0) / xp
+    a_ee = mi + z - y * y / xp
+    axx = a_tt * c * c + 2.0 * a_te * c * s + a_ee * s * s
+    axz = a_tt * c * s + a_te * (s * s - c * c) - a_ee * s * c
+    azz = a_tt * s * s - 2.0 * a_te * s * c + a_ee * c * c
+    return axx, axz, azz
+
+
 @nb.njit(cache=True)
 def _link_drag(
     c: float,
@@ -242,15 +260,8 @@ def _fd_kernel(
             if abs(bx[k]) + abs(bz[k]) < _TINY:
                 bx[k] = 0.0
                 bz[k] = 0.0
-        # new articulated inertia, assembled in the link frame (t, e) to avoid cancellation
-        # in the t direction: A' = m I + A - h h^T / D
-        a_tt = mi * (x / 3.0 + mi / 12.0) / xp
-        a_te = -y * (mi / 6.0) / xp
-        a_ee = mi + z - y * y / xp
-        # back to world frame: A' = a_tt t t^T + a_te (t e^T + e t^T) + a_ee e e^T
-        axx = a_tt * c * c + 2.0 * a_te * c * s + a_ee * s * s
-        axz = a_tt * c * s + a_te * (s * s - c * c) - a_ee * s * c
-        azz = a_tt * s * s - 2.0 * a_te * s * c + a_ee * c * c
+        # new articulated inertia A' = m I + A - h h^T / D (see _articulated_inertia)
+        axx, axz, azz = _articulated_inertia(mi, x, y, z, xp, c, s)
 
     # ---- forward sweep ---------------------------------------------------------------------
     q0 = u - hk * q[0] - hc * qd[0]
@@ -886,12 +897,7 @@ def schur_packed(arr: np.ndarray, par: np.ndarray, q: np.ndarray) -> np.ndarray:
             if abs(bx[k]) + abs(bz[k]) < _TINY:
                 bx[k] = 0.0
                 bz[k] = 0.0
-        a_tt = mi * (x / 3.0 + mi / 12.0) / xp
-        a_te = -y * (mi / 6.0) / xp
-        a_ee = mi + z - y * y / xp
-        axx = a_tt * c * c + 2.0 * a_te * c * s + a_ee * s * s
-        axz = a_tt * c * s + a_te * (s * s - c * c) - a_ee * s * c
-        azz = a_tt * s * s - 2.0 * a_te * s * c + a_ee * c * c
+        axx, axz, azz = _articulated_inertia(mi, x, y, z, xp, c, s)
     out = np.empty((2, 2))
     for k in range(2):
         zdd = 0.0 if locked else -bz[k] / (mp + azz)
