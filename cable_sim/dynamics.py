@@ -114,8 +114,9 @@ def gravity_vector(model: CableModel, q: np.ndarray) -> np.ndarray:
     return g
 
 
-def _relative(x: np.ndarray) -> np.ndarray:
-    """Joint-relative values phi_1 = x_1, phi_i = x_i - x_{i-1}."""
+def relative_angles(x: np.ndarray) -> np.ndarray:
+    """Joint-relative values phi_1 = x_1, phi_i = x_i - x_{i-1} (of absolute angles, or of
+    their rates), as a URDF chain and the joint springs see them."""
     r = np.empty_like(x)
     r[0] = x[0]
     r[1:] = x[1:] - x[:-1]
@@ -133,7 +134,7 @@ def elastic_force(model: CableModel, q: np.ndarray) -> np.ndarray:
     """K q: joint springs (tridiagonal in theta) and the platform's hydrostatic spring."""
     f = np.empty(model.n + 1)
     f[0] = model.heave_k * q[0]
-    f[1:] = _joint_to_absolute(model.joint_k * _relative(q[1:]))
+    f[1:] = _joint_to_absolute(model.joint_k * relative_angles(q[1:]))
     return f
 
 
@@ -141,7 +142,7 @@ def damping_force(model: CableModel, qd: np.ndarray) -> np.ndarray:
     """C qd: joint dampers and the platform heave damper."""
     f = np.empty(model.n + 1)
     f[0] = model.heave_c * qd[0]
-    f[1:] = _joint_to_absolute(model.joint_c * _relative(qd[1:]))
+    f[1:] = _joint_to_absolute(model.joint_c * relative_angles(qd[1:]))
     return f
 
 
@@ -289,7 +290,7 @@ def potential_energy(model: CableModel, q: np.ndarray) -> float:
     zc = 0.5 * (p[:-1, 1] + p[1:, 1])
     V = model.gravity * (np.sum(model.weight_mass * zc) + model.load_weight_mass * p[-1, 1])
     V += 0.5 * model.heave_k * q[0] ** 2
-    V += 0.5 * np.sum(model.joint_k * _relative(q[1:]) ** 2)
+    V += 0.5 * np.sum(model.joint_k * relative_angles(q[1:]) ** 2)
     return float(V)
 
 

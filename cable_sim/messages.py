@@ -12,6 +12,8 @@ from typing import Any
 
 import numpy as np
 
+from .dynamics import relative_angles
+
 
 def joint_state_arrays(out: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """JointState position, velocity, effort of :class:`cable_sim.runner.Outputs` (interface
@@ -21,11 +23,9 @@ def joint_state_arrays(out: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     pos = np.empty(n + 1)
     vel = np.empty(n + 1)
     pos[0] = q[0]
-    pos[1] = q[1]
-    pos[2:] = np.diff(q[1:])
+    pos[1:] = relative_angles(q[1:])
     vel[0] = qd[0]
-    vel[1] = qd[1]
-    vel[2:] = np.diff(qd[1:])
+    vel[1:] = relative_angles(qd[1:])
     eff = np.empty(n + 1)
     eff[0] = out.inputs.heave_force
     eff[1:] = out.joint_torques

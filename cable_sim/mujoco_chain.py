@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .dynamics import relative_angles
 from .model import CableModel
 
 #: Inertia [kg m^2] about axes no joint can excite (MuJoCo wants a positive-definite body inertia).
@@ -119,8 +120,8 @@ def apply_buoyancy(model: CableModel, mj, data) -> None:
 def to_mujoco(q: np.ndarray, qd: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Our ``(q, qd)`` (absolute angles) -> MuJoCo ``(qpos, qvel)`` (relative angles)."""
     qpos, qvel = np.array(q, dtype=float), np.array(qd, dtype=float)
-    qpos[2:] = np.diff(q[1:])
-    qvel[2:] = np.diff(qd[1:])
+    qpos[1:] = relative_angles(qpos[1:])
+    qvel[1:] = relative_angles(qvel[1:])
     return qpos, qvel
 
 

@@ -212,13 +212,8 @@ class Simulation:
         except np.linalg.LinAlgError as exc:
             raise IntegrationError(self.t, f"singular dynamics (line pulled straight?): {exc}") from exc
         F = dynamics.joint_forces(m, q, qd, qdd, lam)
-        rel = np.empty(m.n)
-        rel[0] = q[1]
-        rel[1:] = np.diff(q[1:])
-        relv = np.empty(m.n)
-        relv[0] = qd[1]
-        relv[1:] = np.diff(qd[1:])
-        torques = m.joint_k * rel + m.joint_c * relv
+        torques = (m.joint_k * dynamics.relative_angles(q[1:])
+                   + m.joint_c * dynamics.relative_angles(qd[1:]))
         pos = dynamics.joint_positions(m, q)
         drift = float(np.linalg.norm(pos[-1] - m.anchor)) if m.constrained else 0.0
         slack = float("nan")
