@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 import os
+import re
 import sys
 import time
 from collections import deque
@@ -54,6 +55,13 @@ from .scenes import SIM_DEFAULTS, available_scenes, read_parameter_file, scene_f
 
 DEFAULT_SCENE = "mooring_line"
 CLOCK_MODES = ("realtime", "fast", "lockstep")
+#: Tick wall times kept for the tick-interval diagnostics (120 s at the 50 Hz real-time tick).
+TICK_HISTORY = 6000
+#: Window of the reported real-time factor [s of wall time, pauses excluded].
+RTF_WINDOW = 10.0
+#: Interval between (wall, sim time) samples of the real-time factor [s]; RTF_SAMPLES bounds them.
+RTF_SAMPLE_INTERVAL = 0.25
+RTF_SAMPLES = int(RTF_WINDOW / RTF_SAMPLE_INTERVAL) + 8
 
 #: Built-in input keys a scene may leave out (defaults; see cable_sim.inputs.make_signal).
 INPUT_DEFAULTS: dict[str, Any] = {
@@ -79,7 +87,8 @@ READ_ONLY_NODE: dict[str, tuple[Any, str]] = {
     "clock_mode": ("realtime", "realtime | fast (publishes /clock) | lockstep (waits for heave_force)"),
     "control_period": (0.05, "lockstep: simulated time [s] advanced per heave_force message"),
     "record": (True, "record the run to MCAP"),
-    "record_path": ("", "MCAP file; default runs/<scene>_<YYYYmmdd-HHMMSS>.mcap"),
+    "record_path": ("", "MCAP file; default runs/<scene>_<node>_<YYYYmmdd-HHMMSS-ffffff>.mcap (<node>: "
+                        "namespace.name); an existing file is never overwritten (-1, -2, ... is added)"),
     "frame_id": ("world", "frame of all stamped outputs (x-z plane, z up)"),
     "exit_at_end": (False, "with duration > 0: stop, close the recording and exit 0 at the end"),
 }
@@ -180,6 +189,25 @@ def _scene_descriptor(key: str) -> ParameterDescriptor:
     return d
 
 
+def default_record_path(scene: str, node_fqn: str, start: datetime) -> str:
+    """Default recording file ``runs/<scene>_<node>_<YYYYmmdd-HHMMSS-ffffff>.mcap``.
+
+    Parameters
+    ----------
+    scene : str
+        Scene name.
+    node_fqn : str
+        Fully qualified node name (``/leg1/cable_sim_node``); written as ``leg1.cable_sim_node``
+        (every character other than letters, digits, ``_``, ``-`` and ``.`` becomes ``_``), so
+        nodes of one launch in different namespaces never share a default name.
+    start : datetime
+        Start time (local time of day in the name, to the microsecond).
+    """
+    node = re.sub(r"[^A-Za-z0-9_.-]", "_", ".".join(p for p in node_fqn.split("/") if p)) or "node"
+    stamp = start.astimezone().strftime("%Y%m%d-%H%M%S-%f")
+    return os.path.join("runs", f"{scene}_{node}_{stamp}.mcap")
+
+
 def _check_input(value: float, limit: float) -> str | None:
     """Why an input value is rejected (None if accepted)."""
     if not math.isfinite(value):
@@ -259,7 +287,14 @@ class CableSimNode(Node):
         self.finished = False
         self.step_wall = 0.0
         self.steps_done = 0
-        self.tick_times: deque[float] = deque(maxlen=100_000)
+        #: Wall times of the last timer ticks (bounded: memory must not grow over long runs).
+        self.tick_times: deque[float] = deque(maxlen=TICK_HISTORY)
+        #: Wall time spent paused [s] (finished pauses) and the start of the pause in progress.
+        self.paused_wall = 0.0
+        self._pause_started: float | None = None
+        #: (active wall, sim time) samples for the windowed real-time factor (bounded).
+        self._rtf_samples: deque[tuple[float, float]] = deque(maxlen=RTF_SAMPLES)
+        self._active_base = 0.0  # active wall time at the start / the last reset
         self.lockstep_queue: deque[float] = deque()
         self.pending_wave: float | None = None
         self.recorder = self._open_recorder()
@@ -379,13 +414,15 @@ class CableSimNode(Node):
         except ImportError as exc:  # pragma: no cover - recorder needs mcap
             self.get_logger().error(f"recording disabled: {exc}")
             return None
-        path = self._p("record_path") or os.path.join(
-            "runs", f"{self.sim.scene.name}_{datetime.now().strftime('%Y%m%d-%H%M%S')}.mcap")
+        start = datetime.now(UTC)
+        fqn = self.get_fully_qualified_name()
+        path = self._p("record_path") or default_record_path(self.sim.scene.name, fqn, start)
         meta = run_metadata(dict(self.sim.scene.source), kernel=self.sim.kernel,
                             integrator=self.sim.integrator.name, step=self.h,
                             n_links=self.sim.model.n, clock_mode=self.clock_mode,
-                            start=datetime.now(UTC))
+                            start=start, node=fqn)
         try:
+            # an existing file is never overwritten: RunRecorder picks a new name and warns
             return RunRecorder(path, meta, logger=self.get_logger())
         except RecorderError as exc:
             self.get_logger().error(f"{exc}; the simulation runs without recording")
@@ -468,6 +505,8 @@ class CableSimNode(Node):
         self.lockstep_queue.clear()
         self.pending_wave = None
         self.sim_wall_base = (time.monotonic(), 0.0)
+        self._active_base = self.active_wall()
+        self._rtf_samples.clear()
         self._applied_changed()
         # in lockstep before the controller is connected, joint_states(t0) still waits for it
         self._publish_outputs(js=self.lockstep_started, mk=True, tn=True)
@@ -477,8 +516,15 @@ class CableSimNode(Node):
 
     def _on_pause(self, request: SetBool.Request, response: SetBool.Response) -> SetBool.Response:
         if request.data != self.paused:
+            now = time.monotonic()
+            self._sample_rtf(now)
             self.paused = bool(request.data)
-            self.sim_wall_base = (time.monotonic(), self.sim.t)
+            if self.paused:
+                self._pause_started = now
+            elif self._pause_started is not None:
+                self.paused_wall += now - self._pause_started
+                self._pause_started = None
+            self.sim_wall_base = (now, self.sim.t)
             if not self.paused and self.clock_mode == "lockstep":
                 self._advance_lockstep()
         response.success = True
@@ -522,9 +568,40 @@ class CableSimNode(Node):
         if self._p("exit_at_end"):
             raise SystemExit(0)
 
+    def active_wall(self, now: float | None = None) -> float:
+        """Wall time since the start [s] without the time spent paused."""
+        now = time.monotonic() if now is None else now
+        paused = self.paused_wall + (now - self._pause_started if self._pause_started is not None else 0.0)
+        return now - self.start_wall - paused
+
+    def _sample_rtf(self, now: float) -> None:
+        """Add an (active wall, sim time) sample for the windowed real-time factor."""
+        a = self.active_wall(now)
+        if not self._rtf_samples or a - self._rtf_samples[-1][0] >= RTF_SAMPLE_INTERVAL:
+            self._rtf_samples.append((a, self.sim.t))
+
+    def real_time_factor(self, now: float | None = None) -> tuple[float, float]:
+        """Real-time factor over the last :data:`RTF_WINDOW` s and since the start (or reset).
+
+        Both are simulated time over *active* wall time: time spent paused does not count.
+        Returns ``(windowed, mean)``; nan while no active wall time has passed.
+        """
+        now = time.monotonic() if now is None else now
+        a = self.active_wall(now)
+        since = a - self._active_base
+        mean = self.sim.t / since if since > 1e-3 else math.nan
+        a0, s0 = a - since, 0.0
+        for aw, st in self._rtf_samples:  # oldest sample inside the window
+            if a - aw <= RTF_WINDOW:
+                a0, s0 = aw, st
+                break
+        windowed = (self.sim.t - s0) / (a - a0) if a - a0 > 1e-3 else mean
+        return windowed, mean
+
     def _tick_realtime(self) -> None:
         now = time.monotonic()
         self.tick_times.append(now)
+        self._sample_rtf(now)
         if not self._running():
             return
         wall0, sim0 = self.sim_wall_base
@@ -545,7 +622,9 @@ class CableSimNode(Node):
             self._publish("clock", self.pub_clock, clock_message(self._stamp()), self._stamp())
 
     def _tick_fast(self) -> None:
-        self.tick_times.append(time.monotonic())
+        now = time.monotonic()
+        self.tick_times.append(now)
+        self._sample_rtf(now)
         if not self._running():
             return
         end = time.perf_counter() + 0.01
@@ -585,6 +664,7 @@ class CableSimNode(Node):
                                f"t = {self.sim.t:g} s, advancing one control period per heave_force")
 
     def _advance_lockstep(self) -> None:
+        self._sample_rtf(time.monotonic())
         while self.lockstep_queue and self._running():
             value = self.lockstep_queue.popleft()
             changed = value != self.sim.held_heave_force
@@ -644,13 +724,17 @@ class CableSimNode(Node):
 
     def diagnostics_values(self) -> dict[str, Any]:
         """Key/values of the diagnostics status (also used by tests and the benchmark)."""
-        wall = time.monotonic() - self.start_wall
+        now = time.monotonic()
+        wall = now - self.start_wall
+        rtf, rtf_mean = self.real_time_factor(now)
         out = getattr(self, "last_outputs", None)
         ticks = np.diff(np.array(self.tick_times)) if len(self.tick_times) > 2 else np.zeros(1)
         v: dict[str, Any] = {
             "sim_time": repr(self.sim.t),
             "wall_time": repr(wall),
-            "real_time_factor": repr(self.sim.t / wall) if wall > 0 else "nan",
+            "real_time_factor": repr(rtf),
+            "real_time_factor_mean": repr(rtf_mean),
+            "paused_time": repr(wall - self.active_wall(now)),
             "step_cost_us": repr(1e6 * self.step_wall / max(self.steps_done, 1)),
             "steps": str(self.sim.k),
             "energy": repr(out.energy) if out is not None else "nan",

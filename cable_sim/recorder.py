@@ -438,8 +438,8 @@ def serialize(msg: Any) -> bytes:
 class _Sink:
     """Buffered binary file that the MCAP writer writes to; can be flushed to disk (fsync)."""
 
-    def __init__(self, path: Path) -> None:
-        self.f = open(path, "wb")  # noqa: SIM115 - closed by close()
+    def __init__(self, f: Any) -> None:
+        self.f = f
 
     def write(self, data: bytes) -> int:
         return self.f.write(data)
@@ -458,6 +458,51 @@ class _Sink:
         self.f.close()
 
 
+#: Most alternative names ``<stem>-<i><suffix>`` tried when the requested file exists.
+MAX_NAME_ATTEMPTS = 10_000
+
+
+def open_new_file(path: Path) -> tuple[Any, Path]:
+    """Open a *new* file for writing, never an existing one; return ``(file, path used)``.
+
+    The file is created exclusively (``open(..., "xb")``, O_CREAT | O_EXCL), so two writers that
+    ask for the same name at the same instant cannot both get it. When ``path`` exists as a
+    regular file (or a link to one), it is left untouched and ``<stem>-1<suffix>``,
+    ``<stem>-2<suffix>``, ... are tried instead. An existing non-regular file that is not a
+    directory (a device such as ``/dev/full``, a FIFO) holds nothing to destroy and is opened
+    for writing as it is.
+
+    Parameters
+    ----------
+    path : Path
+        Requested file.
+
+    Returns
+    -------
+    file : binary file object
+        Open for writing.
+    path : Path
+        The file actually opened (``path`` itself unless it existed).
+
+    Raises
+    ------
+    OSError
+        ``IsADirectoryError`` when ``path`` is a directory, ``FileExistsError`` when
+        :data:`MAX_NAME_ATTEMPTS` names are all taken, or the error of ``open`` itself.
+    """
+    for i in range(MAX_NAME_ATTEMPTS):
+        p = path if i == 0 else path.with_name(f"{path.stem}-{i}{path.suffix}")
+        try:
+            return open(p, "xb"), p  # noqa: SIM115 - closed by _Sink.close()
+        except FileExistsError:
+            if p.is_dir():
+                raise IsADirectoryError(errno.EISDIR, os.strerror(errno.EISDIR), str(p)) from None
+            if p.exists() and not p.is_file():  # device / FIFO: nothing to overwrite
+                return open(p, "wb"), p  # noqa: SIM115
+    raise FileExistsError(errno.EEXIST, f"{path} and {MAX_NAME_ATTEMPTS - 1} numbered alternatives "
+                          "exist", str(path))
+
+
 _OPEN_RECORDERS: weakref.WeakSet[RunRecorder] = weakref.WeakSet()
 
 
@@ -473,7 +518,10 @@ class RunRecorder:
     Parameters
     ----------
     path : str or Path
-        Output ``.mcap`` file; missing parent directories are created.
+        Requested ``.mcap`` file; missing parent directories are created. An existing file is
+        never overwritten: the recording then goes to ``<stem>-1.mcap``, ``<stem>-2.mcap``, ...
+        (see :func:`open_new_file`), a warning is logged, and :attr:`path` is the file actually
+        written (:attr:`requested_path` the one asked for).
     metadata : dict of str -> dict of str -> str, optional
         Metadata records written at the start of the file (e.g. ``"scene"``, ``"run"``).
     compression : {"zstd", "lz4", "none"}
@@ -505,7 +553,9 @@ class RunRecorder:
         max_queue: int = 100_000,
         chunk_size: int = 1 << 20,
     ) -> None:
-        self.path = Path(path)
+        #: The file asked for; :attr:`path` is the one written (they differ after a name clash).
+        self.requested_path = Path(path)
+        self.path = self.requested_path
         comp = {"zstd": CompressionType.ZSTD, "lz4": CompressionType.LZ4,
                 "none": CompressionType.NONE, "": CompressionType.NONE}
         if compression not in comp:
@@ -537,7 +587,8 @@ class RunRecorder:
         self._last_drop_log = 0.0
         try:
             self.path.parent.mkdir(parents=True, exist_ok=True)
-            self._sink = _Sink(self.path)
+            f, self.path = open_new_file(self.requested_path)
+            self._sink = _Sink(f)
         except OSError as exc:
             reason = exc.strerror or str(exc)
             bad = next((p for p in [self.path.parent, *self.path.parent.parents]
@@ -547,6 +598,9 @@ class RunRecorder:
             elif self.path.is_dir():
                 reason = "it is a directory"
             raise RecorderError(f"cannot record to {str(self.path)!r}: {reason}") from exc
+        if self.path != self.requested_path:
+            self._log(f"{self.requested_path} already exists and is never overwritten: "
+                      f"recording to {self.path} instead")
         try:
             self._writer = Writer(self._sink, chunk_size=chunk_size, compression=comp[compression])
             self._writer.start(profile=PROFILE, library=LIBRARY)
@@ -807,18 +861,25 @@ def _str_dict(data: dict[str, Any]) -> dict[str, str]:
 
 def run_metadata(
     scene_values: dict[str, Any], *, kernel: str, integrator: str, step: float, n_links: int,
-    clock_mode: str, start: datetime | None = None,
+    clock_mode: str, start: datetime | None = None, node: str | None = None,
 ) -> dict[str, dict[str, str]]:
-    """The ``"scene"`` and ``"run"`` metadata records of the shared recording format."""
+    """The ``"scene"`` and ``"run"`` metadata records of the shared recording format.
+
+    ``node`` (the recording node's fully qualified name, e.g. ``/leg1/cable_sim_node``) is
+    stored as ``run["node"]`` when given.
+    """
     version = package_version()
     start = start or datetime.now(UTC)
+    run = {
+        "kernel": str(kernel), "integrator": str(integrator), "step": repr(float(step)),
+        "n_links": str(int(n_links)), "clock_mode": str(clock_mode),
+        "start_wall_time_iso": start.isoformat(), "cable_sim_version": str(version),
+    }
+    if node is not None:
+        run["node"] = str(node)
     return {
         "scene": {"json": json.dumps(scene_values, default=_json_default, sort_keys=True)},
-        "run": {
-            "kernel": str(kernel), "integrator": str(integrator), "step": repr(float(step)),
-            "n_links": str(int(n_links)), "clock_mode": str(clock_mode),
-            "start_wall_time_iso": start.isoformat(), "cable_sim_version": str(version),
-        },
+        "run": run,
     }
 
 
@@ -936,4 +997,5 @@ def iter_topics(records: Iterable[Any]) -> dict[str, int]:
 __all__ = [
     "RunRecorder", "RecorderError", "recover", "scan_records", "message_definition",
     "type_name_of", "serialize", "cdr_length", "run_metadata", "iter_topics", "msg_file",
+    "open_new_file",
 ]
