@@ -16,7 +16,19 @@ setup(
         (f"share/{PACKAGE}/config", glob("config/*.yaml")),
         (f"share/{PACKAGE}/msg_configs", glob("msg_configs/*")),
     ],
-    install_requires=["setuptools", "numpy", "scipy", "pyyaml"],
+    # Every third-party runtime import of cable_sim/*.py (the ROS packages come from the ROS
+    # install / the ros-jazzy-* wheels and are declared in package.xml). Lower bounds only; the
+    # Makefile pins the versions the project is tested with.
+    install_requires=[
+        "setuptools",
+        "numpy>=1.26",  # everywhere
+        "scipy>=1.11",  # integrators, dynamics, statics
+        "pyyaml>=6.0",  # scenes
+        "numba>=0.59",  # fast kernel (imported by the node at start-up)
+        "mcap>=1.1",  # recorder (writer), replay (reader)
+        "mcap-ros2-support>=0.5",  # replay: decoding the recorded ROS 2 messages
+        "matplotlib>=3.8",  # replay figures / GIF, bench figures
+    ],
     extras_require={"bench": ["mujoco"]},
     zip_safe=True,
     maintainer="cable_sim developers",
