@@ -1,0 +1,1 @@
+"""Offline analysis tools built on the headless simulation core."""
