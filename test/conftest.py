@@ -214,3 +214,24 @@ def anchored_scene_run():
         ys[k + 1] = y
     return {"scene": scene, "model": model, "system": system, "integrator": integ,
             "t": np.arange(steps + 1) * h, "y": ys}
+
+
+@pytest.fixture(autouse=True)
+def _reap_test_processes():
+    """After every test (passed, failed or timed out), kill and reap the processes it started
+    through ``ros_util.popen`` / ``start_node`` (fixtures of a wider scope set up before this
+    one keep theirs), so no test leaves a process running."""
+    import ros_util
+
+    first = ros_util.started()
+    yield
+    ros_util.reap_all(since=first)
+
+
+@pytest.fixture(autouse=True, scope="session")
+def _reap_session_processes():
+    """At the end of the session, kill and reap every process any test or fixture started."""
+    yield
+    import ros_util
+
+    ros_util.reap_all()

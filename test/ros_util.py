@@ -1,13 +1,33 @@
-"""Helpers for the node tests: isolated ROS domain, node subprocess, spinning until a condition."""
+"""Helpers for the node tests: isolated ROS domain, node subprocess, spinning until a condition.
+
+Every process a test starts goes through :func:`popen` (or :func:`start_node`, which uses it):
+
+- the child starts with the default SIGINT/SIGTERM dispositions and an empty signal mask, even
+  when pytest itself runs with SIGINT ignored (a background job of a non-interactive shell, e.g.
+  ``(trap '' INT; make test)``): SIG_IGN is inherited across exec, and a Python child that starts
+  with SIGINT ignored installs no KeyboardInterrupt handler, so a test's SIGINT would do nothing;
+- on Linux the child gets SIGKILL when the pytest process dies (``PR_SET_PDEATHSIG``), so not
+  even a killed test run leaves it behind;
+- it is registered, and :func:`reap_all` kills and reaps whatever is still running: the autouse
+  fixtures in ``conftest.py`` call it after every test (for the processes that test started;
+  a module-scoped fixture's node lives on for its module and stops in its own ``finally``) and
+  at the end of the session (for everything). :func:`node_process` is the context-manager form
+  for one node.
+"""
 
 from __future__ import annotations
 
+import contextlib
+import ctypes
+import ctypes.util
 import os
 import random
 import shutil
+import signal
 import subprocess
 import sys
 import time
+from collections.abc import Iterator
 from pathlib import Path
 
 import rclpy
@@ -44,16 +64,97 @@ def node_executable() -> str:
     return found
 
 
-def start_node(scene: str, *overrides: str, domain: int | None = None,
-               cwd: Path | None = None) -> subprocess.Popen:
-    """Start cable_sim_node as a separate process in ROS domain ``domain`` (scene file + -p)."""
+_LIVE: list[subprocess.Popen] = []
+_PR_SET_PDEATHSIG = 1
+try:  # resolved before any fork: the child only calls the function
+    _prctl = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6", use_errno=True).prctl
+except (OSError, AttributeError):  # not Linux / no prctl: the per-test reaping still applies
+    _prctl = None
+
+
+def default_signals() -> None:
+    """``preexec_fn``: default SIGINT/SIGTERM, nothing blocked, SIGKILL if the parent dies."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    signal.pthread_sigmask(signal.SIG_SETMASK, set())
+    if _prctl is not None:
+        _prctl(_PR_SET_PDEATHSIG, int(signal.SIGKILL), 0, 0, 0)
+
+
+def popen(args: list[str], **kwargs) -> subprocess.Popen:
+    """``subprocess.Popen`` with :func:`default_signals` in the child, registered for :func:`reap_all`."""
+    proc = subprocess.Popen(args, preexec_fn=default_signals, **kwargs)
+    _LIVE.append(proc)
+    return proc
+
+
+def kill_and_reap(proc: subprocess.Popen, timeout: float = 10.0) -> None:
+    """SIGKILL ``proc`` if it still runs, wait for it and close its pipes (never raises)."""
+    with contextlib.suppress(ProcessLookupError, OSError):
+        if proc.poll() is None:
+            proc.kill()
+    with contextlib.suppress(subprocess.TimeoutExpired, OSError, ValueError):
+        proc.communicate(timeout=timeout)  # reaps, and drains the pipes so the child can exit
+    with contextlib.suppress(subprocess.TimeoutExpired):
+        proc.wait(timeout=timeout)
+    for f in (proc.stdin, proc.stdout, proc.stderr):
+        if f is not None:
+            with contextlib.suppress(OSError, ValueError):
+                f.close()
+
+
+def started() -> int:
+    """How many processes :func:`popen` has registered so far (pass to :func:`reap_all`)."""
+    return len(_LIVE)
+
+
+def reap_all(since: int = 0) -> list[int]:
+    """Kill and reap the processes :func:`popen` registered after the first ``since`` ones (all by
+    default); return the pids that were still running."""
+    alive = []
+    while len(_LIVE) > since:
+        proc = _LIVE.pop()
+        if proc.poll() is None:
+            alive.append(proc.pid)
+        kill_and_reap(proc)
+    return alive
+
+
+def node_args(scene: str, *overrides: str) -> list[str]:
+    """Command line of the installed node for a shipped scene plus ``-p`` overrides."""
     args = [node_executable(), "--ros-args", "--params-file", str(CONFIG / f"{scene}.yaml")]
     for o in overrides:
         args += ["-p", o]
-    env = dict(os.environ, ROS_DOMAIN_ID=str(domain if domain is not None else os.environ["ROS_DOMAIN_ID"]),
-               ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
-    return subprocess.Popen(args, cwd=cwd, env=env, stdout=subprocess.PIPE,
-                            stderr=subprocess.STDOUT, text=True)
+    return args
+
+
+def node_env(domain: int | None = None) -> dict[str, str]:
+    """The test environment with ROS domain ``domain`` (default: the current one), localhost only."""
+    return dict(os.environ,
+                ROS_DOMAIN_ID=str(domain if domain is not None else os.environ["ROS_DOMAIN_ID"]),
+                ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
+
+
+def start_node(scene: str, *overrides: str, domain: int | None = None,
+               cwd: Path | None = None) -> subprocess.Popen:
+    """Start cable_sim_node as a separate process in ROS domain ``domain`` (scene file + -p).
+
+    Output (stdout and stderr) is piped as text. The process is killed and reaped after the test
+    at the latest (:func:`reap_all`); use :func:`node_process` to bound it to a block.
+    """
+    return popen(node_args(scene, *overrides), cwd=cwd, env=node_env(domain), stdout=subprocess.PIPE,
+                 stderr=subprocess.STDOUT, text=True)
+
+
+@contextlib.contextmanager
+def node_process(scene: str, *overrides: str, domain: int | None = None,
+                 cwd: Path | None = None) -> Iterator[subprocess.Popen]:
+    """:func:`start_node` as a context manager: the node is killed and reaped on leaving the block."""
+    proc = start_node(scene, *overrides, domain=domain, cwd=cwd)
+    try:
+        yield proc
+    finally:
+        kill_and_reap(proc)
 
 
 def spin_until(executor, cond, timeout: float) -> bool:

@@ -21,6 +21,7 @@ from mcap.reader import make_reader
 from mcap.stream_reader import StreamReader
 from mcap_ros2.decoder import DecoderFactory
 from rclpy.serialization import deserialize_message, serialize_message
+from ros_util import kill_and_reap, popen
 from rosbags.highlevel import AnyReader
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 from sensor_msgs.msg import JointState
@@ -269,12 +270,15 @@ def test_signals_leave_readable_files(tmp_path, sig):
     code = WRITER
     if sig == signal.SIGTERM:
         code = "import signal, sys\nsignal.signal(signal.SIGTERM, lambda *a: sys.exit(143))\n" + code
-    p = subprocess.Popen([sys.executable, "-c", code, str(path)], stdout=subprocess.PIPE, text=True,
-                         cwd=ROOT)
-    assert p.stdout.readline().strip() == "ready"
-    time.sleep(0.5)
-    p.send_signal(sig)
-    p.wait(20)
+    # default SIGINT/SIGTERM in the writer even when pytest runs with SIGINT ignored (background job)
+    p = popen([sys.executable, "-c", code, str(path)], stdout=subprocess.PIPE, text=True, cwd=ROOT)
+    try:
+        assert p.stdout.readline().strip() == "ready"
+        time.sleep(0.5)
+        p.send_signal(sig)
+        p.wait(20)
+    finally:
+        kill_and_reap(p)
     records, err = scan_records(path)
     msgs = [r for r in records if type(r).__name__ == "Message"]
     vals = [deserialize_message(m.data, Float64).data for m in msgs]
