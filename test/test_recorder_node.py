@@ -15,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from ros_util import isolate_ros, kill_and_reap, start_node
 
 ROOT = Path(__file__).resolve().parent.parent
 VENV = Path(sys.prefix)
@@ -23,11 +24,8 @@ NODE = VENV / "bin" / "cable_sim_node"
 pytestmark = pytest.mark.skipif(not (ROOT / "cable_sim" / "node.py").exists() or not NODE.exists(),
                                 reason="cable_sim/node.py or the installed cable_sim_node is missing")
 
-DOMAIN = str(random.Random(os.getpid() + int(time.time())).randint(101, 180))
-os.environ["ROS_DOMAIN_ID"] = DOMAIN
-os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
-os.environ.setdefault("AMENT_PREFIX_PATH", str(VENV))
-os.environ.setdefault("RMW_IMPLEMENTATION", "rmw_fastrtps_cpp")
+DOMAIN = isolate_ros()  # this module's own ROS domain, localhost discovery
+os.environ["PYTHONUNBUFFERED"] = "1"
 
 from mcap.reader import make_reader  # noqa: E402
 from mcap_ros2.decoder import DecoderFactory  # noqa: E402
@@ -48,27 +46,10 @@ def _installed_is_current():
         spec is not None and Path(spec.origin).resolve() == (ROOT / "cable_sim" / "recorder.py").resolve())
 
 
-def node_cmd(scene, record_path, *params):
-    cmd = [str(NODE), "--ros-args", "--params-file", str(ROOT / "config" / f"{scene}.yaml"),
-           "-p", f"record_path:={record_path}"]
-    for p in params:
-        cmd += ["-p", p]
-    return cmd
-
-
-def node_env():
-    env = dict(os.environ)
-    env["ROS_DOMAIN_ID"] = DOMAIN
-    env["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
-    env["PYTHONUNBUFFERED"] = "1"
-    return env
-
-
-def run_node(scene, record_path, *params, timeout=120):
-    p = subprocess.run(node_cmd(scene, record_path, *params), env=node_env(), capture_output=True,
-                       text=True, timeout=timeout, cwd=ROOT)
-    assert p.returncode == 0, f"node exited {p.returncode}\n{p.stdout[-3000:]}\n{p.stderr[-3000:]}"
-    return p
+def launch(scene, record_path, *params):
+    """The installed node for ``scene`` recording to ``record_path``, in this module's domain, run from
+    the repository root (``ros_util.start_node``: default signals, killed and reaped after the test)."""
+    return start_node(scene, f"record_path:={record_path}", *params, domain=DOMAIN, cwd=ROOT)
 
 
 def counts_rosbags(path):
@@ -103,7 +84,7 @@ def test_node_recording_opens_with_both_readers(tmp_path):
 
     path = tmp_path / "run.mcap"
     ctx = Context()
-    rclpy.init(context=ctx, domain_id=int(DOMAIN))
+    rclpy.init(context=ctx, domain_id=DOMAIN)
     live: dict[str, list[bytes]] = {"/joint_states": [], "/line_tension": []}
     try:
         node = rclpy.create_node("recording_listener", context=ctx)
@@ -112,10 +93,8 @@ def test_node_recording_opens_with_both_readers(tmp_path):
         node.create_subscription(JointState, "joint_states", live["/joint_states"].append, 100, raw=True)
         node.create_subscription(Float64MultiArray, "line_tension", live["/line_tension"].append, 100,
                                  raw=True)
-        proc = subprocess.Popen(node_cmd("paper_anchored_forced", path, "clock_mode:=realtime",
-                                         "duration:=5.0", "exit_at_end:=true", "n_links:=20"),
-                                env=node_env(), stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
-                                cwd=ROOT)
+        proc = launch("paper_anchored_forced", path, "clock_mode:=realtime", "duration:=5.0",
+                      "exit_at_end:=true", "n_links:=20")
         t0 = time.monotonic()
         while proc.poll() is None and time.monotonic() - t0 < 60:
             ex.spin_once(timeout_sec=0.01)
@@ -168,9 +147,7 @@ def _closest_diff(raw, candidates):
 
 
 def _start_long_node(path):
-    p = subprocess.Popen(node_cmd("paper_anchored_forced", path, "clock_mode:=fast", "duration:=0.0",
-                                  "n_links:=20"), env=node_env(), stdout=subprocess.PIPE,
-                         stderr=subprocess.STDOUT, text=True, cwd=ROOT)
+    p = launch("paper_anchored_forced", path, "clock_mode:=fast", "duration:=0.0", "n_links:=20")
     t0 = time.monotonic()
     while time.monotonic() - t0 < 60:
         if path.exists() and path.stat().st_size > 50_000:
@@ -232,13 +209,10 @@ def test_lockstep_run_replays_bit_for_bit_from_its_recording(tmp_path):
     from cable_sim.replay import compare, resimulate
 
     path = tmp_path / "lockstep.mcap"
-    proc = subprocess.Popen(node_cmd("paper_anchored_forced", path, "clock_mode:=lockstep",
-                                     "control_period:=0.05", "duration:=1.5", "exit_at_end:=true",
-                                     "n_links:=20"),
-                            env=node_env(), stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
-                            cwd=ROOT)
+    proc = launch("paper_anchored_forced", path, "clock_mode:=lockstep", "control_period:=0.05",
+                  "duration:=1.5", "exit_at_end:=true", "n_links:=20")
     ctx = Context()
-    rclpy.init(context=ctx, domain_id=int(DOMAIN))
+    rclpy.init(context=ctx, domain_id=DOMAIN)
     sent = []
     try:
         node = rclpy.create_node("lockstep_controller", context=ctx)
@@ -283,8 +257,7 @@ def test_lockstep_run_replays_bit_for_bit_from_its_recording(tmp_path):
             raise AssertionError(f"node did not exit at the end:\n{proc.communicate()[0][-3000:]}") from None
         assert proc.returncode == 0, out[-3000:]
     finally:
-        if proc.poll() is None:
-            proc.kill()
+        kill_and_reap(proc)
         rclpy.try_shutdown(context=ctx)
 
     run = load_run(path)
