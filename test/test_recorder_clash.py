@@ -178,3 +178,29 @@ def test_directory_path_is_still_an_error(tmp_path):
 
     with pytest.raises(RecorderError, match="it is a directory"):
         RunRecorder(tmp_path)
+
+
+def test_packed_chunk_indexes_give_the_stock_writers_bytes(tmp_path, monkeypatch):
+    """The recorder keeps the mcap writer's per-chunk indexes packed (bounded memory over long
+    runs); the file must be byte for byte what the unmodified writer produces."""
+    from cable_sim import recorder
+
+    def record(path: Path) -> RunRecorder:
+        rec = RunRecorder(path, {"m": {"k": "v"}}, chunk_size=2000, logger=lambda _m: None)
+        for i in range(3000):
+            rec.write(f"/t{i % 5}", Float64(data=float(i)), i)
+        rec.close()
+        return rec
+
+    packed = record(tmp_path / "packed.mcap")
+    assert len(packed._writer._Writer__chunk_indices) > 20  # many chunks: the index matters
+    monkeypatch.setattr(recorder, "_pack_chunk_indexes", lambda _w: None)
+    stock = record(tmp_path / "stock.mcap")
+    assert isinstance(stock._writer._Writer__chunk_indices, list)
+    assert packed.path.read_bytes() == stock.path.read_bytes()
+    from mcap.reader import make_reader
+
+    with open(packed.path, "rb") as f:  # the indexed reader uses the chunk indexes
+        r = make_reader(f)
+        assert len(r.get_summary().chunk_indexes) == len(packed._writer._Writer__chunk_indices)
+        assert sum(1 for _ in r.iter_messages(topics=["/t3"])) == 600
