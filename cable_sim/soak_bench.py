@@ -82,6 +82,16 @@ def check_mcap(path: Path) -> dict[str, Any]:
 def _default_signals() -> None:  # runs in the child before exec
     signal.signal(signal.SIGINT, signal.SIG_DFL)
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    try:  # the node gets SIGTERM if the benchmark dies without its finally (SIGKILL)
+        import ctypes
+
+        ctypes.CDLL(None, use_errno=True).prctl(1, int(signal.SIGTERM))  # PR_SET_PDEATHSIG
+    except (OSError, AttributeError):  # pragma: no cover - not Linux
+        pass
+
+
+def _raise_interrupt(signum: int, frame: Any) -> None:
+    raise KeyboardInterrupt(f"signal {signum}")
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -103,6 +113,10 @@ def main(argv: list[str] | None = None) -> int:
         if not ok:
             ap.error(f"{name} = {v}: allowed {rng}")
 
+    # SIGINT/SIGTERM stop the soak through the finally below (node stopped and reaped), also
+    # when started as a background job with SIGINT ignored
+    signal.signal(signal.SIGINT, _raise_interrupt)
+    signal.signal(signal.SIGTERM, _raise_interrupt)
     domain = random.randint(181, 232)
     os.environ["ROS_DOMAIN_ID"] = str(domain)
     os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
@@ -174,6 +188,9 @@ def main(argv: list[str] | None = None) -> int:
             if now >= end:
                 break
             ex.spin_once(timeout_sec=max(0.0, min(next_input, next_sample, end) - time.monotonic()))
+    except KeyboardInterrupt as exc:
+        print(f"soak: interrupted ({exc}) after {len(rows)} samples", flush=True)
+        code = 130
     finally:
         ex.shutdown()
         node.destroy_node()
