@@ -151,3 +151,24 @@ def test_failing_cases_become_rows(tmp_path):
     assert math.isnan(rows[1]["fairlead_max"])
     for r in rows:
         assert r["package_version"] and len(r["scene_hash"]) == 16 and r["wall_time"] > 0
+
+
+def test_marked_case_recorded_as_mcap(tmp_path):
+    from cable_sim.replay import load_run
+
+    d = dict(SMALL, grid={"wave_hs": [2.0, 3.0]}, duration=10.0, transient=2.0)
+    study = study_from_dict(d)
+    first = study.cases()[0].case_id
+    study = study_from_dict(dict(d, record_mcap=[first]))
+    run_study(study, tmp_path, serial=True, progress=False, plots=False)
+    rows = read_table(tmp_path / "results.parquet")
+    assert rows[0]["mcap_error"] is None and rows[1]["mcap_path"] is None
+    run = load_run(rows[0]["mcap_path"])
+    assert run.t[-1] == pytest.approx(10.0)
+    tr = run.fairlead.t
+    rec = np.hypot(run.fairlead.v[:, 0], run.fairlead.v[:, 1])
+    on_grid = (tr >= 2.0 - 1e-9) & (np.abs(tr * 10 - np.round(tr * 10)) < 1e-6)  # the row's 0.1 s samples
+    assert on_grid.sum() == rows[0]["n_samples"]
+    assert rec[on_grid].max() == pytest.approx(rows[0]["fairlead_max"], rel=1e-12)
+    assert rec[tr >= 2.0 - 1e-9].max() >= rows[0]["fairlead_max"]
+    assert not list((tmp_path / "mcap").glob(f"{rows[1]['case_id']}*"))

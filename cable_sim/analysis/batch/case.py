@@ -12,6 +12,7 @@ import socket
 import time
 import traceback
 from importlib import metadata
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -38,13 +39,19 @@ def package_version() -> str:
         return "unknown"
 
 
-def case_spec(study: Any, case: Any) -> dict[str, Any]:
-    """The picklable description of one case of a study (see :func:`run_case`)."""
+def case_spec(study: Any, case: Any, mcap_dir: str | None = None) -> dict[str, Any]:
+    """The picklable description of one case of a study (see :func:`run_case`).
+
+    ``mcap_dir``: where to record the case as MCAP when the study marks it (``record_mcap``);
+    on a multi-machine cluster it must be a path every worker can write (shared file system).
+    """
+    marked = "all" in study.record_mcap or case.case_id in study.record_mcap
     return {
         "case_id": case.case_id, "index": case.index, "inputs": dict(case.inputs),
         "scene_values": dict(case.scene_values), "scene_hash": case.scene_hash,
         "duration": study.duration, "transient": study.transient,
         "output_interval": study.output_interval, "tn_curve": study.tn_curve.as_dict(),
+        "mcap_path": f"{mcap_dir}/{case.case_id}.mcap" if (marked and mcap_dir) else None,
     }
 
 
@@ -86,6 +93,19 @@ def _stats(prefix: str, x: np.ndarray, tn: TNCurve, area: float, window: float) 
     }
 
 
+def _record(spec: dict[str, Any]) -> dict[str, Any]:
+    """Record the case as MCAP in the node's format (a second, headless run with the recorder)."""
+    from ...replay import record_headless
+    from ...scenes import scene_from_dict
+
+    try:
+        Path(spec["mcap_path"]).parent.mkdir(parents=True, exist_ok=True)
+        record_headless(scene_from_dict(dict(spec["scene_values"])), spec["mcap_path"], spec["duration"])
+        return {"mcap_path": spec["mcap_path"], "mcap_error": None}
+    except Exception as exc:  # noqa: BLE001 - a failed recording is reported in the row
+        return {"mcap_path": None, "mcap_error": f"{type(exc).__name__}: {exc}"}
+
+
 def run_case(spec: dict[str, Any]) -> dict[str, Any]:
     """Simulate one case and return its result row (never raises).
 
@@ -101,7 +121,8 @@ def run_case(spec: dict[str, Any]) -> dict[str, Any]:
         The inputs, ``status`` (``ok``/``error``), ``error`` and ``error_time``, statistics of
         fairlead/anchor tension after the transient (max, min, mean, std, Rayleigh MPM, number of
         peaks, Miner damage over the window and per year), ``touchdown_excursion`` (nan: the scene
-        has no seabed), wall time, real-time factor, package version, scene hash, host.
+        has no seabed), wall time (of the statistics run), real-time factor, package version, scene
+        hash, host; ``mcap_path``/``mcap_error`` when the case is recorded (``spec["mcap_path"]``).
     """
     row: dict[str, Any] = {"case_id": spec["case_id"], "case_index": spec["index"], **spec["inputs"]}
     row.update({"status": "ok", "error": None, "error_time": float("nan")})
@@ -128,6 +149,8 @@ def run_case(spec: dict[str, Any]) -> dict[str, Any]:
         row["error_time"] = float(et) if isinstance(et, (int, float)) else float("nan")
         row["traceback"] = traceback.format_exc(limit=4)
     wall = time.perf_counter() - t0
+    if spec.get("mcap_path") and row["status"] == "ok":
+        row.update(_record(spec))
     row["wall_time"] = wall
     simulated = float(sim.t) if sim is not None else 0.0
     row["sim_time"] = simulated

@@ -6,6 +6,7 @@ Layout of the output directory::
     out/results.parquet          all rows of the study, in case order (rebuilt at the end)
     out/extremes.parquet         per-sea-state Gumbel MPM table
     out/study.json               the study's settings and case ids
+    out/mcap/<case_id>.mcap      recording of each case the study marks (``record_mcap``)
     out/plots/*.png              heat map, exceedance curves, damage contributions
 
 A restarted study skips every case whose ``cases/<case_id>.json`` exists, so each case is run and
@@ -148,7 +149,8 @@ def run_study(
         "transient": study.transient, "output_interval": study.output_interval,
         "tn_curve": study.tn_curve.as_dict(), "case_ids": [c.case_id for c in cases]}, indent=1))
     done = {c.case_id for c in cases if case_file(out, c.case_id).exists()}
-    pending = [case_spec(study, c) for c in cases if c.case_id not in done]
+    mcap_dir = str((out / "mcap").resolve())
+    pending = [case_spec(study, c, mcap_dir) for c in cases if c.case_id not in done]
     if max_cases is not None:
         pending = pending[:max_cases]
     bar = _progress(len(cases), len(done), progress)

@@ -16,7 +16,7 @@ A study file (YAML)::
     output_interval: 0.1               # tension sampling interval [s]
     tn_curve: {type: studless_chain, nominal_diameter: 0.076}   # or a_d / m explicitly
     sea_state_keys: [wave_hs, wave_tp, wave_gamma]   # grouping for the extremes table
-    record_mcap: []                    # case ids (or "all") to record (not implemented yet)
+    record_mcap: []                    # case ids (or "all") to record as MCAP (node format)
 
 Each case has a stable id: the first 16 hex digits of the SHA-256 of the canonical JSON of its
 fully resolved scene key/values plus ``duration``, ``transient`` and ``output_interval``.
