@@ -11,6 +11,14 @@
   (right-hand-side evaluations, read from the system).
 - A failed check raises :class:`IntegrationError` carrying the time and the reason; nothing
   non-finite is ever returned.
+- Divergence is detected from physics, not from overflow: every step is also checked against
+  an energy bound derived from the scene (:func:`available_energy`: the state's mechanical
+  energy above the lowest potential energy the scene admits, plus an upper bound on the work
+  the inputs can do, :func:`input_power_bound`). A state whose kinetic energy (its platform and
+  link-rotation part, a lower bound of the total) exceeds :data:`ENERGY_MARGIN` times that bound
+  is a numerical instability and is never accepted. The bound is set from the first state an
+  integrator is given and re-based whenever a caller passes a state other than the last one
+  returned (a new run); :meth:`Integrator.reset_energy_budget` sets it explicitly.
 - For an anchored line (exact constraint or the paper's emulation) the check also stops with a
   clear reason when the line is pulled (nearly) taut: slack ``1 - |fairlead - anchor| / L``
   below ``taut_slack``, or the anchor's 2x2 Schur matrix ``J M^-1 J^T`` singular or with a
@@ -29,6 +37,7 @@ adaptive reference. Stiff implicit schemes live in :mod:`cable_sim.implicit`.
 
 from __future__ import annotations
 
+import logging
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
 
@@ -57,10 +66,16 @@ class IntegrationError(RuntimeError):
 
 @dataclass
 class Trajectory:
-    """Sampled solution: ``t`` shape (k,), ``y`` shape (k, 2(n+1))."""
+    """Sampled solution: ``t`` shape (k,), ``y`` shape (k, 2(n+1)).
+
+    ``step_used`` is the step size [s] the fixed-step schemes actually took (equal to the
+    requested step when the output interval is a multiple of it; see :meth:`Integrator.integrate`),
+    None for the adaptive schemes.
+    """
 
     t: np.ndarray
     y: np.ndarray
+    step_used: float | None = None
 
 
 #: Slack below which the anchored end's Schur-matrix conditioning is also checked each step.
@@ -73,7 +88,96 @@ _PROJECTION_TOL = 1e-12
 _WARMED: set[type] = set()
 
 # status codes of the compiled steppers (cable_sim.fast.STATUS_*)
-_NONFINITE, _DRIFT, _TAUT, _SINGULAR, _ILL = 1, 2, 3, 4, 5
+_NONFINITE, _DRIFT, _TAUT, _SINGULAR, _ILL, _UNSTABLE, _ENERGY_JUMP, _OSCILLATION = range(1, 9)
+
+#: A state is rejected when its kinetic energy exceeds this many times the available energy
+#: (:func:`available_energy` plus the input work). A stable scheme's energy error is orders of
+#: magnitude smaller; an instability grows by orders of magnitude per step.
+ENERGY_MARGIN = 2.0
+
+#: Integration-error allowance of the per-step energy check [1/s]: over one step of h the
+#: mechanical energy may rise by at most ``h * (input power bound + ENERGY_RATE * E_avail)``.
+#: A stable scheme's per-step energy error is far smaller (measured: < 3e-3 E_avail/s for
+#: implicit Euler at 20 ms on an undamped line, < 1e-9 for RK4 at its working steps); an
+#: instability's first visible step exceeds it by orders of magnitude.
+ENERGY_RATE = 0.05
+
+log = logging.getLogger(__name__)
+
+
+def _osc_steps() -> int:
+    from . import fast
+
+    return fast.OSC_STEPS
+
+
+def kinetic_lower_bound(model, y: np.ndarray) -> float:
+    """``1/2 M zd^2 + sum_i 1/2 (m_i l_i^2 / 12) thd_i^2`` [J]: the platform's and the links'
+    rotational kinetic energy, a lower bound of the kinetic energy (what the per-step check of
+    :func:`cable_sim.fast.check_packed` compares with the bound)."""
+    n1 = model.ndof
+    w = np.asarray(y[n1 + 1:], dtype=float)
+    return float(0.5 * model.platform_mass * y[n1] ** 2
+                 + np.sum(model.mass * model.length ** 2 * w * w) / 24.0)
+
+
+def available_energy(model, y: np.ndarray) -> float:
+    """Energy [J] that can become kinetic without input work: ``E(y) - V_min``.
+
+    ``V_min`` is a lower bound of the potential energy over all configurations: each link
+    centre (load) at most its arc length s_i (L) below or above the fairlead, joint springs
+    relaxed, and the heave spring plus the line's weight at their minimum
+    ``-(g G)^2 / (2 k_m)`` (``G`` the total weight-minus-buoyancy mass; the platform's own
+    position when heave is locked). Infinite when the potential is unbounded below (free
+    platform with no heave stiffness under a net weight): the check is then off.
+    """
+    from . import fast
+
+    n1 = model.ndof
+    q, qd = np.asarray(y[:n1], dtype=float), np.asarray(y[n1:], dtype=float)
+    t_kin, v_pot = fast.energy(model, q, qd)
+    g = float(model.gravity)
+    s = np.cumsum(model.length) - 0.5 * model.length
+    G = g * (float(np.sum(model.weight_mass)) + float(model.load_weight_mass))
+    spread = g * (float(np.sum(np.abs(model.weight_mass) * s))
+                  + abs(float(model.load_weight_mass)) * float(np.sum(model.length)))
+    km = float(model.heave_k)
+    if model.heave_locked:
+        v_heave = 0.5 * km * q[0] ** 2 + G * q[0]
+    elif km > 0:
+        v_heave = -G * G / (2.0 * km)
+    elif G == 0.0:
+        v_heave = 0.0
+    else:
+        return float("inf")
+    return float(t_kin + v_pot - (v_heave - spread))
+
+
+def input_power_bound(model, heave_force: float, wave_elevation: float, energy: float) -> float:
+    """Upper bound [W] of the power the inputs can feed into the line.
+
+    The platform force ``u + k_m eta`` (wave term when coupled) against the heave damper:
+    ``max_v (u v - c_m v^2) = u^2 / (4 c_m)``; without a damper ``|u| sqrt(2 E / M)`` (the
+    platform speed bounded by the energy ``E``). A uniform current through Morison drag:
+    ``max_w c |w|^2 (|U| - |w|) = (4/27) c |U|^3`` per link. Joint dampers and drag
+    otherwise only dissipate.
+    """
+    p = 0.0
+    if not model.heave_locked:
+        u = abs(float(heave_force))
+        if model.wave_coupling:
+            u += abs(float(model.heave_k * wave_elevation))
+        if u > 0:
+            if model.heave_c > 0:
+                p += u * u / (4.0 * float(model.heave_c))
+            elif model.platform_mass > 0:
+                p += u * np.sqrt(2.0 * max(energy, 0.0) / float(model.platform_mass))
+            else:
+                return float("inf")
+    if model.drag == 2 and model.current:
+        c = np.maximum(model.morison_cn, model.morison_ct)
+        p += 4.0 / 27.0 * float(np.sum(c)) * abs(float(model.current)) ** 3
+    return float(p)
 
 
 class Integrator(ABC):
@@ -123,6 +227,10 @@ class Integrator(ABC):
         self.max_condition = max_condition
         self.use_compiled = bool(compiled)
         self.nsteps = 0
+        self._budget: float | None = None  # available energy [J] incl. input work so far
+        #: Step size [s] of the last :meth:`advance` (may be shorter than h; see there).
+        self.step_used: float = self.h
+        self._last_y: np.ndarray | None = None  # last state returned (continuity of a run)
         if self.compiled:
             self._warm()
 
@@ -141,17 +249,102 @@ class Integrator(ABC):
             raise ValueError("initial state is not finite")
         return y
 
+    # ---- energy bound (numerical-instability check) ------------------------------------
+    def reset_energy_budget(self, y: np.ndarray) -> None:
+        """Start a new run at state ``y``: the kinetic-energy bound becomes
+        :data:`ENERGY_MARGIN` x (:func:`available_energy` of ``y`` + input work from now on)."""
+        self._budget = available_energy(self.system.model, y)
+        self._last_y = np.array(y, dtype=float, copy=True)
+        for mem in (getattr(self, "_osc", None), getattr(self, "_fast_pk", (None,) * 4)[3]):
+            if mem is not None and mem.shape[0] > 9:
+                mem[8:10] = 0.0  # the oscillation detector starts afresh
+
+    @property
+    def kinetic_energy_bound(self) -> float:
+        """The current bound [J] on the kinetic energy of an accepted state (inf: no run yet)."""
+        return float("inf") if self._budget is None else ENERGY_MARGIN * self._budget
+
+    def _budget_for(self, y: np.ndarray, duration: float, u_max: float, eta_max: float) -> None:
+        """Before steps over ``duration`` from ``y``: re-base the budget when ``y`` does not
+        continue the last run, then add the inputs' work bound over the interval."""
+        if self._budget is None or self._last_y is None or not np.array_equal(y, self._last_y):
+            self.reset_energy_budget(y)
+        p = input_power_bound(self.system.model, u_max, eta_max, ENERGY_MARGIN * self._budget)
+        self._budget += duration * p
+
+    def _accepted(self, y: np.ndarray) -> np.ndarray:
+        self._last_y = y.copy()
+        return y
+
+    def _input_bounds(self, t0: float, t1: float) -> tuple[float, float]:
+        """Largest |heave force| and |wave elevation| sampled at t0, the midpoint and t1."""
+        ins = [self.system.input_at(t) for t in (t0, 0.5 * (t0 + t1), t1)]
+        return (max(abs(i.heave_force) for i in ins), max(abs(i.wave_elevation) for i in ins))
+
     # ---- checks ------------------------------------------------------------------------
     def _chk(self) -> np.ndarray:
         """Check parameters for the compiled steppers (see ``fast.check_packed``)."""
         return np.array([self.max_drift, self.taut_slack, _PROJECTION_TOL, self.max_condition,
-                         CONDITION_CHECK_SLACK])
+                         CONDITION_CHECK_SLACK, self.kinetic_energy_bound, np.nan, np.inf])
+
+    def _osc_floor(self, h: float) -> float:
+        """Smallest velocity increment [rad/s] the runaway detector looks at: ``OSC_ACCEL g h /
+        l_min`` (g at least 1 m/s^2)."""
+        from . import fast
+
+        model = self.system.model
+        return fast.OSC_ACCEL * max(float(model.gravity), 1.0) * h / float(np.min(model.length))
+
+    def _osc_memory(self) -> np.ndarray:
+        """The oscillation detector's memory for the Python path (``fast.oscillation_packed``)."""
+        mem = getattr(self, "_osc", None)
+        if mem is None or mem.shape[0] != 11 + 2 * self.system.model.ndof:
+            mem = np.zeros(11 + 2 * self.system.model.ndof)
+            self._osc = mem
+        return mem
+
+    def _energy_jump_allowed(self, h: float, u_max: float, eta_max: float) -> float:
+        """Largest energy increase [J] accepted over one step of h (see :data:`ENERGY_RATE`)."""
+        if self._budget is None or not np.isfinite(self._budget):
+            return float("inf")
+        p = input_power_bound(self.system.model, u_max, eta_max, ENERGY_MARGIN * self._budget)
+        self._jump_allowed = h * (p + ENERGY_RATE * max(self._budget, 0.0))
+        return self._jump_allowed
+
+    def _energy(self, y: np.ndarray) -> float:
+        from . import fast
+
+        n1 = self.system.model.ndof
+        t_kin, v_pot = fast.energy(self.system.model, y[:n1], y[n1:])
+        return float(t_kin + v_pot)
 
     def _raise_status(self, status: int, t: float, value: float, y_last: np.ndarray | None = None) -> None:
         """Raise the :class:`IntegrationError` for a status code; ``y_last`` (the last good
         state) adds the snap-load context when an anchored line was nearly taut."""
         if status == _NONFINITE:
-            reason = "state became non-finite (blow-up); reduce the step or use an implicit integrator"
+            reason = ("numerical instability: the state became non-finite (blow-up); reduce the "
+                      "step or use an implicit integrator")
+        elif status == _UNSTABLE:
+            reason = (f"numerical instability: kinetic energy {value:.3g} J (platform + link "
+                      f"rotation alone) exceeds the physical bound {self.kinetic_energy_bound:.3g} J "
+                      "(the scene's available mechanical energy plus the work its inputs can do, "
+                      f"x{ENERGY_MARGIN:g}); the step h = {self.h:g} s is beyond this scheme's "
+                      "stability limit: reduce the step or use an implicit scheme")
+        elif status == _ENERGY_JUMP:
+            reason = (f"numerical instability: the mechanical energy rose by {value:.3g} J in one "
+                      f"step, more than the inputs can supply plus the integration-error allowance "
+                      f"({getattr(self, '_jump_allowed', float('nan')):.3g} J); the step h = "
+                      f"{self.h:g} s is beyond this scheme's stability limit: reduce the step or "
+                      "use an implicit scheme")
+        elif status == _OSCILLATION:
+            reason = (f"numerical instability: a mode grew by x{value:.3g} per step "
+                      f"for {_osc_steps()} steps in a row (|R(h lambda)| > 1: the step h = {self.h:g} s "
+                      "is beyond this scheme's stability limit); reduce the step or use an "
+                      "implicit scheme")
+        elif status == _SINGULAR and self.system.model.end == 0:
+            reason = ("singular dynamics within a step on a free-end line; "
+                      "the state is most likely diverging (numerical instability): reduce the "
+                      "step or use an implicit integrator")
         elif status == _DRIFT:
             reason = f"anchor constraint drift {value:.3g} m > {self.max_drift} m"
             if value > float(np.sum(self.system.model.length)):
@@ -170,7 +363,7 @@ class Integrator(ABC):
                       "fairlead and anchor (kinematic singularity, snap load)")
         else:
             reason = f"unknown failure (status {status})"
-        if y_last is not None and status not in (_TAUT, _ILL):
+        if y_last is not None and status not in (_TAUT, _ILL, _UNSTABLE, _ENERGY_JUMP, _OSCILLATION):
             slack = self._slack(y_last)
             if slack < CONDITION_CHECK_SLACK:
                 reason += (f" (the line was nearly taut: slack {slack:.3g} < {CONDITION_CHECK_SLACK:g}; "
@@ -198,6 +391,14 @@ class Integrator(ABC):
             if status != 0:
                 self._raise_status(status, t, float(info[2]), y_last)
             return y
+        y = self._check_dense(t, y, y_last)
+        tlb = kinetic_lower_bound(model, y)
+        if tlb > self.kinetic_energy_bound:
+            self._raise_status(_UNSTABLE, t, tlb, y_last)
+        return y
+
+    def _check_dense(self, t: float, y: np.ndarray, y_last: np.ndarray | None) -> np.ndarray:
+        model = self.system.model
         if not np.all(np.isfinite(y)):
             self._raise_status(_NONFINITE, t, float("nan"), y_last)
         if model.constrained:
@@ -228,13 +429,28 @@ class Integrator(ABC):
         h = self.h if h is None else h
         if self.compiled:
             return self._run_fast(t, y, h, 1)
+        bounds = self._input_bounds(t, t + h)
+        self._budget_for(y, h, *bounds)
+        allowed = self._energy_jump_allowed(h, *bounds)
+        e_old = self._energy(y) if np.isfinite(allowed) else 0.0
         try:
             y_new = self._step(t, y, h)
         except np.linalg.LinAlgError:
             self._raise_status(_SINGULAR, t + h, float("nan"), y)
         y_new = self._check(t + h, y_new, y)
+        if np.isfinite(allowed):
+            jump = self._energy(y_new) - e_old
+            if jump > allowed:
+                self._raise_status(_ENERGY_JUMP, t + h, jump, y)
+        from . import fast
+
+        info = np.zeros(4)
+        mem = self._osc_memory()
+        mem[10] = self._osc_floor(h)
+        if fast.oscillation_packed(y_new, mem, info) != 0:
+            self._raise_status(_OSCILLATION, t + h, float(info[2]), y)
         self.nsteps += 1
-        return y_new
+        return self._accepted(y_new)
 
     # ---- compiled fast path (system kernel "fast") ------------------------------------
     #: Where a compiled step samples the inputs, as fractions of h (empty: no compiled path).
@@ -261,7 +477,8 @@ class Integrator(ABC):
             from . import fast
 
             arr, par = fast.pack_arrays(model)
-            pk = (key, arr, par, self._chk())
+            chk = np.concatenate([self._chk(), np.zeros(3 + 2 * model.ndof)])
+            pk = (key, arr, par, chk)
             self._fast_pk = pk
         return pk[1], pk[2], pk[3]
 
@@ -305,6 +522,12 @@ class Integrator(ABC):
             raise ValueError(
                 f"state has shape {yc.shape}; expected ({2 * self.system.model.ndof},) = 2(n+1)"
             )
+        u_max, eta_max = float(np.max(np.abs(u))), float(np.max(np.abs(eta)))
+        self._budget_for(yc, nsteps * h, u_max, eta_max)
+        chk[5] = self.kinetic_energy_bound
+        chk[7] = self._energy_jump_allowed(h, u_max, eta_max)
+        chk[6] = self._energy(yc) if np.isfinite(chk[7]) else np.nan
+        chk[10] = self._osc_floor(h)
         info = np.zeros(4)
         status = self._fast_kernel(arr, par, float(h), u, eta, yc, chk, info)
         done = nsteps if status == 0 else int(info[1])
@@ -312,14 +535,35 @@ class Integrator(ABC):
         self.system.nfev += int(info[0]) if self._fast_fevals is None else self._fast_fevals * done
         if status != 0:
             self._raise_status(status, t0 + (done + 1) * h, float(info[2]), yc)
-        return yc
+        return self._accepted(yc)
+
+    def _steps_for(self, duration: float) -> tuple[int, float]:
+        """Number of equal steps of at most h covering ``duration`` and their size; the size
+        is kept in :attr:`step_used` and a warning is logged (once per size) when it differs
+        from the requested step h by more than 1e-9 relative."""
+        n = max(1, int(np.ceil(duration / self.h - 1e-9)))
+        h = duration / n
+        self.step_used = h
+        if abs(h - self.h) > 1e-9 * self.h:
+            warned = self.__dict__.setdefault("_warned_steps", set())
+            key = round(h / self.h, 9)
+            if key not in warned:
+                warned.add(key)
+                log.warning(
+                    "%s: the requested step h = %g s does not divide the interval %g s; "
+                    "stepping with h = %.6g s instead (%d equal steps per interval)",
+                    self.name, self.h, duration, h, n)
+        return n, h
 
     def advance(self, t: float, y: np.ndarray, t_end: float) -> np.ndarray:
         """Advance from t to t_end in equal steps of at most h (one compiled call when
-        :attr:`compiled`)."""
+        :attr:`compiled`).
+
+        When ``t_end - t`` is not a multiple of h, the step is shortened to the largest size
+        that divides it: the size taken is kept in :attr:`step_used` and a warning is logged.
+        """
         y = self._validate(y)
-        n = max(1, int(np.ceil((t_end - t) / self.h - 1e-9)))
-        h = (t_end - t) / n
+        n, h = self._steps_for(t_end - t)
         if self.compiled:
             return self._run_fast(t, y, h, n)
         for k in range(n):
@@ -327,16 +571,29 @@ class Integrator(ABC):
         return y
 
     def integrate(self, y0: np.ndarray, t0: float, t_end: float, dt_out: float) -> Trajectory:
-        """Integrate and sample every ``dt_out`` seconds (including t0 and t_end)."""
+        """Integrate and sample every ``dt_out`` seconds (including t0 and t_end).
+
+        The requested step h is used exactly when ``dt_out`` is a multiple of it. Otherwise the
+        step is shortened to ``dt_out / ceil(dt_out / h)`` (e.g. h = 3 ms with dt_out = 0.04 s
+        runs at 2.857 ms): a warning is logged and the step actually taken is returned in
+        :attr:`Trajectory.step_used`. Likewise, when ``t_end - t0`` is not a multiple of
+        ``dt_out`` the output interval is adjusted (logged; the samples are in ``t``).
+        """
         y = self._validate(y0)
+        if not (np.isfinite(dt_out) and dt_out > 0):
+            raise ValueError(f"parameter 'dt_out' = {dt_out!r} is invalid; allowed: finite number > 0")
         k = max(1, int(round((t_end - t0) / dt_out)))
         ts = np.linspace(t0, t_end, k + 1)
+        if abs((t_end - t0) / k - dt_out) > 1e-9 * dt_out:
+            log.warning("%s: t_end - t0 = %g s is not a multiple of dt_out = %g s; sampling "
+                        "every %.6g s instead", self.name, t_end - t0, dt_out, (t_end - t0) / k)
+        self.reset_energy_budget(y)
         ys = np.empty((k + 1, y.size))
         ys[0] = y
         for i in range(k):
             y = self.advance(ts[i], y, ts[i + 1])
             ys[i + 1] = y
-        return Trajectory(ts, ys)
+        return Trajectory(ts, ys, step_used=self.step_used)
 
 
 class RK4(Integrator):
@@ -445,7 +702,9 @@ class ScipyIntegrator(Integrator):
 
     def advance(self, t: float, y: np.ndarray, t_end: float) -> np.ndarray:
         """One adaptive solve from t to t_end (checked)."""
-        return self._check(t_end, self._step(t, self._validate(y), t_end - t))
+        y = self._validate(y)
+        self._budget_for(y, t_end - t, *self._input_bounds(t, t_end))
+        return self._accepted(self._check(t_end, self._step(t, y, t_end - t), y))
 
     def integrate(self, y0: np.ndarray, t0: float, t_end: float, dt_out: float) -> Trajectory:
         """One adaptive solve, sampled every ``dt_out`` by the dense output."""

@@ -19,7 +19,7 @@ import numpy as np
 from . import dynamics
 from .dynamics import Inputs
 from .inputs import make_signal
-from .integrators import IntegrationError
+from .integrators import IntegrationError, kinetic_lower_bound
 from .model import CableModel
 from .scenes import Scene
 
@@ -166,6 +166,7 @@ class Simulation:
         self.y = self.y0.copy()
         self.held_heave_force = 0.0
         self.held_wave_elevation = 0.0
+        self.integrator.reset_energy_budget(self.y)
 
     def set_heave_force(self, value: float) -> None:
         """Hold a heave force [N] (added to the built-in source) from the next step on."""
@@ -203,18 +204,42 @@ class Simulation:
         return n
 
     def outputs(self) -> Outputs:
-        """Derived quantities of the current state (tensions, energy, positions...)."""
+        """Derived quantities of the current state (tensions, energy, positions...).
+
+        Raises
+        ------
+        IntegrationError
+            When the state or a derived quantity is not finite, or the state's kinetic energy
+            exceeds the integrator's physical bound (numerical instability): nothing
+            implausible is returned.
+        """
         m = self.model
         q, qd = self.y[: m.ndof], self.y[m.ndof:]
+        if not np.all(np.isfinite(self.y)):
+            raise IntegrationError(self.t, "numerical instability: the state is not finite")
+        tlb = kinetic_lower_bound(m, self.y)
+        bound = self.integrator.kinetic_energy_bound
+        if tlb > bound:
+            raise IntegrationError(
+                self.t, f"numerical instability: kinetic energy {tlb:.3g} J exceeds the physical "
+                f"bound {bound:.3g} J; reduce the step or use an implicit scheme")
         inputs = self.inputs_at(self.t)
         try:
             qdd, lam = self.system.forward(m, q, qd, inputs)
         except np.linalg.LinAlgError as exc:
+            if m.end == 0:
+                raise IntegrationError(
+                    self.t, f"singular dynamics on a free-end line (numerical instability?): {exc}"
+                ) from exc
             raise IntegrationError(self.t, f"singular dynamics (line pulled straight?): {exc}") from exc
         F = dynamics.joint_forces(m, q, qd, qdd, lam)
         torques = (m.joint_k * dynamics.relative_angles(q[1:])
                    + m.joint_c * dynamics.relative_angles(qd[1:]))
         pos = dynamics.joint_positions(m, q)
+        if not (np.all(np.isfinite(qdd)) and np.all(np.isfinite(F))
+                and (lam is None or np.all(np.isfinite(lam)))):
+            raise IntegrationError(self.t, "numerical instability: non-finite accelerations or "
+                                   "joint forces from a finite state")
         drift = float(np.linalg.norm(pos[-1] - m.anchor)) if m.constrained else 0.0
         slack = float("nan")
         if m.end != 0:

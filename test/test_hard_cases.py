@@ -172,7 +172,7 @@ def test_large_n_mooring_line() -> None:
     # bending damping per joint grows like n: explicit RK4 needs h ~ 1e-4 s at n = 1000
     err = expect_failure(_large_sim("rk4", 1e-3, n), t_end)
     print(f"\n[large n] rk4 h=1e-3: {err}")
-    assert "non-finite" in err.reason or "blowing up" in err.reason
+    assert "numerical instability" in err.reason or "blowing up" in err.reason
     sim = _large_sim("rosenbrock2", 0.005, n)
     r = run(sim, t_end, 0.01)
     e, rel = report("large n", "rosenbrock2", 0.005, r, ref, t_end)
@@ -288,13 +288,42 @@ def test_conservative_line_keeps_its_energy() -> None:
     print(f"[conservative] rk4 h=0.005: |dE| max {np.max(np.abs(r.d_energy)):.3g} J, position "
           f"error {r.error_to(ref):.3g} m")
     assert np.max(np.abs(r.d_energy)) < 1e-9 * e_ref and r.error_to(ref) < 1e-5
-    # the implicit schemes are dissipative (L-stable): they lose energy, they never gain it
-    for name, h in (("rosenbrock2", 0.01), ("implicit_euler", 0.005)):
-        sim = Simulation(scene, integrator=name, step=h)
-        r = run(sim, t_end, 0.05, energy=False)
-        print(f"[conservative] {name} h={h}: energy change at the end {r.d_energy[-1]:.3g} J, "
-              f"max gain {r.d_energy.max():.3g} J, position error {r.error_to(ref):.3g} m")
-        assert r.d_energy[-1] < 0 and r.d_energy.max() < 1e-6 * e_ref
+
+
+def test_implicit_schemes_energy_on_a_conservative_line() -> None:
+    """What is true of the implicit schemes' energy (no drag, no dampers, no forcing).
+
+    Measured (n = 10 released from horizontal, 20 s; max of E(t) - E(0) over the run):
+    Rosenbrock2 *gains* energy at times, +0.37, 2.3, 9.3, 38 J at h = 2, 5, 10, 20 ms, and its
+    energy error is O(h^2): it is second order, and its linear (A-/L-) stability does not make
+    it dissipative on this nonlinear system with a configuration-dependent M(q).
+    Linearly implicit Euler stays below the initial energy at every frame and dissipates O(h)
+    (-1.9e3 J at 2 ms, -4.2e3 J at 5 ms over the 20 s).
+    """
+    scene = load_scene("paper_free_fall", {
+        "n_links": 10, "drag_model": "none", "joint_dampers": False, "platform_damper": False,
+        "initial_angle_deg": 90.0,
+    })
+    t_end = 20.0
+    e_ref = _potential_drop(scene)
+    err = {}
+    for h in (0.01, 0.005):
+        r = run(Simulation(scene, integrator="rosenbrock2", step=h), t_end, 0.05, energy=False)
+        err[h] = float(np.max(np.abs(r.d_energy)))
+        print(f"\n[conservative n=10] rosenbrock2 h={h}: max gain {r.d_energy.max():.3g} J, "
+              f"max |dE| {err[h]:.3g} J (energy scale {e_ref:.3g} J)")
+        assert np.all(np.isfinite(r.d_energy)) and err[h] < 1e-3 * e_ref  # bounded, small
+    order = np.log(err[0.01] / err[0.005]) / np.log(2.0)
+    print(f"[conservative n=10] rosenbrock2 observed order of the energy error {order:.2f}")
+    assert 1.6 < order < 2.4
+    loss = {}
+    for h in (0.01, 0.005):
+        r = run(Simulation(scene, integrator="implicit_euler", step=h), t_end, 0.05, energy=False)
+        loss[h] = -float(r.d_energy[-1])
+        print(f"[conservative n=10] implicit_euler h={h}: max E(t) - E(0) {r.d_energy[1:].max():.3g} J, "
+              f"loss at the end {loss[h]:.3g} J")
+        assert r.d_energy[1:].max() < 0  # never above the initial energy
+    assert loss[0.01] > 1.3 * loss[0.005] > 0  # dissipation grows with h (first order)
 
 
 def _potential_drop(scene) -> float:
