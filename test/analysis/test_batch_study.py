@@ -48,3 +48,23 @@ def test_errors_name_key_value_and_range(patch, key):
 def test_duplicate_cases_rejected():
     with pytest.raises(StudyError, match="cases"):
         study_from_dict(_base(cases=[{"wave_hs": 2.0, "wave_seed": 1}])).cases()
+
+
+def test_cli_rejects_bad_study_with_exit_2(tmp_path, capsys):
+    from cable_sim.analysis.batch.cli import main
+
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("base_scene: mooring_line\nduration: 10\ntransient: 20\n")
+    assert main([str(bad), "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert "transient" in err and "20" in err and "allowed" in err
+    assert not (tmp_path / "out").exists()
+
+
+def test_example_study_is_valid_and_small():
+    from cable_sim.analysis.batch.study import load_study
+    from cable_sim.scenes import CONFIG_DIR
+
+    s = load_study(CONFIG_DIR / "studies" / "example_study.yaml")
+    cases = s.cases()
+    assert len(cases) == 8 and s.duration * len(cases) <= 1500.0
