@@ -290,7 +290,7 @@ def _fast_decoders():
         if fast is not None and schema.encoding == "ros2msg":
             try:
                 return fast(data)
-            except (ValueError, IndexError):
+            except (ValueError, IndexError, struct.error):
                 pass
         return generic(schema, data)
 
