@@ -107,6 +107,25 @@ def test_worker_killed_mid_study_keeps_its_case(cluster, serial_rows, tmp_path):
         assert all(_same(a[col], b[col]) for col in SIMULATED_COLUMNS)
 
 
+def raise_on_case_0(spec):
+    """Case runner whose task itself fails for case 0 (as a task lost beyond its retries would)."""
+    if spec["index"] == 0:
+        raise RuntimeError("task failed on purpose")
+    return run_case(spec)
+
+
+def test_failed_task_becomes_error_row(cluster, tmp_path):
+    import cloudpickle
+
+    cloudpickle.register_pickle_by_value(sys.modules[__name__])
+    d = dict(SMALL, grid={"wave_hs": [2.0, 3.0]}, duration=6.0, transient=1.0)
+    run_study(study_from_dict(d), tmp_path, scheduler=cluster.scheduler_address, progress=False,
+              plots=False, case_fn=raise_on_case_0, retries=1)
+    rows = read_table(tmp_path / "results.parquet")
+    assert [r["status"] for r in rows] == ["error", "ok"]
+    assert "task failed on purpose" in rows[0]["error"]
+
+
 def test_resume_after_killed_driver(tmp_path):
     study_file = tmp_path / "s.yaml"
     d = dict(SMALL, grid={"wave_hs": [2.0, 3.0, 4.0], "wave_seed": [1, 2]})

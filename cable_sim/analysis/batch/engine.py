@@ -98,6 +98,19 @@ def _make_client(scheduler: str | None, workers: int | None):
     return Client(cluster), cluster
 
 
+def _lost_row(spec: dict[str, Any], exc: BaseException) -> dict[str, Any]:
+    """Error row for a case whose task itself failed (worker lost more often than allowed)."""
+    from .case import SIMULATED_COLUMNS, package_version
+
+    row: dict[str, Any] = {"case_id": spec["case_id"], "case_index": spec["index"], **spec["inputs"]}
+    row.update({c: float("nan") for c in SIMULATED_COLUMNS[4:]})
+    row.update({"status": "error", "error": f"{type(exc).__name__}: {exc}", "error_time": float("nan"),
+                "n_samples": 0, "wall_time": float("nan"), "sim_time": 0.0,
+                "real_time_factor": float("nan"), "package_version": package_version(),
+                "scene_hash": spec["scene_hash"], "host": ""})
+    return row
+
+
 def run_study(
     study: Study,
     out: str | Path,
@@ -164,10 +177,14 @@ def run_study(
 
             client, cluster = _make_client(scheduler, workers)
             try:
-                futures = [client.submit(case_fn, spec, key=f"case-{spec['case_id']}", pure=False,
-                                         retries=retries) for spec in pending]
+                futures = {client.submit(case_fn, spec, key=f"case-{spec['case_id']}", pure=False,
+                                         retries=retries): spec for spec in pending}
                 for fut in as_completed(futures):
-                    write_row(out, fut.result())
+                    try:
+                        row = fut.result()
+                    except Exception as exc:  # noqa: BLE001 - e.g. KilledWorker after repeated losses
+                        row = _lost_row(futures[fut], exc)
+                    write_row(out, row)
                     bar.update(1)
                     fut.release()
             finally:
