@@ -4,7 +4,9 @@
 writes ``scaling.csv`` and ``scaling.png``. Each worker count gets a fresh cluster; every worker
 first runs a short warm-up case (imports, numba cache load), then the study's cases are timed
 from the first submit to the last row written (``steady``), and the whole ``run_study`` call
-including cluster start-up is reported too (``total``).
+including cluster start-up is reported too (``total``). ``mean_case_wall_s`` (time inside a case)
+and ``worker_busy_fraction`` separate scheduling overhead from CPU contention by other processes
+(the machine's 1-minute load average is recorded with each figure).
 """
 
 from __future__ import annotations
@@ -17,7 +19,7 @@ import time
 from pathlib import Path
 
 from .case import case_spec, run_case
-from .engine import run_study
+from .engine import read_table, run_study
 from .study import load_study
 
 REPO = Path(__file__).resolve().parents[3]
@@ -43,12 +45,14 @@ def measure(study_file: Path, workers: int) -> dict[str, float]:
             with Client(cluster) as client:
                 _warm(client, study)
             t1 = time.perf_counter()
-            run_study(study, tmp, scheduler=cluster.scheduler_address, progress=False, plots=False)
+            path = run_study(study, tmp, scheduler=cluster.scheduler_address, progress=False, plots=False)
             t2 = time.perf_counter()
+            busy = sum(r["wall_time"] for r in read_table(path))
         finally:
             cluster.close()
     return {"workers": workers, "cases": n, "steady_s": t2 - t1, "total_s": t2 - t0,
             "cases_per_min": 60.0 * n / (t2 - t1), "cases_per_min_total": 60.0 * n / (t2 - t0),
+            "mean_case_wall_s": busy / n, "worker_busy_fraction": busy / (workers * (t2 - t1)),
             "load_avg_1min": os.getloadavg()[0]}
 
 
