@@ -96,3 +96,10 @@ def test_pip_install_into_fresh_venv_runs_node(tmp_path: Path) -> None:
     assert "ModuleNotFoundError" not in r.stdout
     assert bag.is_file() and bag.stat().st_size > 0, r.stdout[-4000:]
     assert bag.read_bytes()[:8] == b"\x89MCAP0\r\n"
+    # the replay tool too (mcap reader, mcap_ros2 decoder, matplotlib)
+    png = tmp_path / "t.png"
+    r = _run([str(venv / "bin" / "cable_sim_replay"), str(bag), "--tension", str(png)], timeout=300,
+             env=env, cwd=tmp_path)
+    assert r.returncode == 0, r.stdout[-4000:]
+    assert "scene         mooring_line" in r.stdout
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
