@@ -105,6 +105,16 @@ ENERGY_RATE = 0.05
 log = logging.getLogger(__name__)
 
 
+def _disarm(chk: np.ndarray) -> None:
+    """Turn the physical checks of a compiled-stepper ``chk`` off (kinetic-energy bound,
+    energy allowance, runaway floor: inf) keeping the detector's memory; :meth:`Integrator.arm_checks`
+    sets them for each call."""
+    chk[5] = np.inf
+    chk[7] = np.inf
+    if chk.shape[0] > 10:
+        chk[10] = np.inf
+
+
 def _osc_steps() -> int:
     from . import fast
 
@@ -151,6 +161,19 @@ def available_energy(model, y: np.ndarray) -> float:
     else:
         return float("inf")
     return float(t_kin + v_pot - (v_heave - spread))
+
+
+def energy_floor(model) -> float:
+    """The scene's own energy scale [J], added to every energy budget so that a line at rest
+    (available energy ~0) is not held to a round-off-deep bound: the line and load moving at
+    1 m/s, each link lifted by its own length, each joint spring turned by 1 rad and the heave
+    spring stretched by 1 m."""
+    g = float(model.gravity)
+    lmin = float(np.min(model.length))
+    return float(0.5 * (float(np.sum(model.mass)) + float(model.load_mass)) * 1.0
+                 + g * (float(np.sum(np.abs(model.weight_mass) * model.length))
+                        + abs(float(model.load_weight_mass)) * lmin)
+                 + 0.5 * float(np.sum(model.joint_k)) + 0.5 * float(model.heave_k))
 
 
 def input_power_bound(model, heave_force: float, wave_elevation: float, energy: float) -> float:
@@ -252,25 +275,38 @@ class Integrator(ABC):
     # ---- energy bound (numerical-instability check) ------------------------------------
     def reset_energy_budget(self, y: np.ndarray) -> None:
         """Start a new run at state ``y``: the kinetic-energy bound becomes
-        :data:`ENERGY_MARGIN` x (:func:`available_energy` of ``y`` + input work from now on)."""
-        self._budget = available_energy(self.system.model, y)
+        :data:`ENERGY_MARGIN` x (:func:`available_energy` of ``y`` + :func:`energy_floor` +
+        input work from now on)."""
+        self._budget = available_energy(self.system.model, y) + energy_floor(self.system.model)
         self._last_y = np.array(y, dtype=float, copy=True)
         for mem in (getattr(self, "_osc", None), getattr(self, "_fast_pk", (None,) * 4)[3]):
             if mem is not None and mem.shape[0] > 9:
                 mem[8:10] = 0.0  # the oscillation detector starts afresh
+                mem[6] = np.nan  # the energy of the previous state: recomputed
 
     @property
     def kinetic_energy_bound(self) -> float:
         """The current bound [J] on the kinetic energy of an accepted state (inf: no run yet)."""
         return float("inf") if self._budget is None else ENERGY_MARGIN * self._budget
 
-    def _budget_for(self, y: np.ndarray, duration: float, u_max: float, eta_max: float) -> None:
+    def _budget_for(self, y: np.ndarray, duration: float, u_max: float, eta_max: float) -> bool:
         """Before steps over ``duration`` from ``y``: re-base the budget when ``y`` does not
-        continue the last run, then add the inputs' work bound over the interval."""
-        if self._budget is None or self._last_y is None or not np.array_equal(y, self._last_y):
+        continue the last run, then add the inputs' work bound over the interval. Return True
+        when ``y`` continues the last run. The power bound is kept in ``self._power``."""
+        cont = not (self._budget is None or self._last_y is None or not np.array_equal(y, self._last_y))
+        if not cont:
             self.reset_energy_budget(y)
-        p = input_power_bound(self.system.model, u_max, eta_max, ENERGY_MARGIN * self._budget)
+        key = (u_max, eta_max)
+        cached = getattr(self, "_power_cache", None)
+        if cached is not None and cached[0] == key and (cached[2] or cached[3] == self._budget):
+            p = cached[1]
+        else:
+            p = input_power_bound(self.system.model, u_max, eta_max, ENERGY_MARGIN * self._budget)
+            # the bound depends on the energy only without a heave damper
+            self._power_cache = (key, p, self.system.model.heave_c > 0, self._budget)
+        self._power = p
         self._budget += duration * p
+        return cont
 
     def _accepted(self, y: np.ndarray) -> np.ndarray:
         self._last_y = y.copy()
@@ -290,10 +326,14 @@ class Integrator(ABC):
     def _osc_floor(self, h: float) -> float:
         """Smallest velocity increment [rad/s] the runaway detector looks at: ``OSC_ACCEL g h /
         l_min`` (g at least 1 m/s^2)."""
-        from . import fast
+        scale = getattr(self, "_osc_scale", None)
+        if scale is None or scale[0] is not self.system.model:
+            from . import fast
 
-        model = self.system.model
-        return fast.OSC_ACCEL * max(float(model.gravity), 1.0) * h / float(np.min(model.length))
+            model = self.system.model
+            scale = (model, fast.OSC_ACCEL * max(float(model.gravity), 1.0) / float(np.min(model.length)))
+            self._osc_scale = scale
+        return scale[1] * h
 
     def _osc_memory(self) -> np.ndarray:
         """The oscillation detector's memory for the Python path (``fast.oscillation_packed``)."""
@@ -303,12 +343,12 @@ class Integrator(ABC):
             self._osc = mem
         return mem
 
-    def _energy_jump_allowed(self, h: float, u_max: float, eta_max: float) -> float:
-        """Largest energy increase [J] accepted over one step of h (see :data:`ENERGY_RATE`)."""
+    def _energy_jump_allowed(self, h: float) -> float:
+        """Largest energy increase [J] accepted over one step of h (see :data:`ENERGY_RATE`),
+        from the power bound of the last :meth:`_budget_for`."""
         if self._budget is None or not np.isfinite(self._budget):
             return float("inf")
-        p = input_power_bound(self.system.model, u_max, eta_max, ENERGY_MARGIN * self._budget)
-        self._jump_allowed = h * (p + ENERGY_RATE * max(self._budget, 0.0))
+        self._jump_allowed = h * (self._power + ENERGY_RATE * max(self._budget, 0.0))
         return self._jump_allowed
 
     def _energy(self, y: np.ndarray) -> float:
@@ -363,7 +403,13 @@ class Integrator(ABC):
                       "fairlead and anchor (kinematic singularity, snap load)")
         else:
             reason = f"unknown failure (status {status})"
-        if y_last is not None and status not in (_TAUT, _ILL, _UNSTABLE, _ENERGY_JUMP, _OSCILLATION):
+        if y_last is not None and status in (_UNSTABLE, _ENERGY_JUMP, _OSCILLATION):
+            slack = self._slack(y_last)
+            if slack < CONDITION_CHECK_SLACK:  # an anchored line at its snap: say so first
+                reason = (f"line pulled (nearly) taut: slack {slack:.3g} < {CONDITION_CHECK_SLACK:g}; "
+                          "a straight rigid-link line is a kinematic singularity (snap load) this "
+                          f"inextensible model cannot resolve, and the step diverged there ({reason})")
+        elif y_last is not None and status not in (_TAUT, _ILL):
             slack = self._slack(y_last)
             if slack < CONDITION_CHECK_SLACK:
                 reason += (f" (the line was nearly taut: slack {slack:.3g} < {CONDITION_CHECK_SLACK:g}; "
@@ -429,9 +475,8 @@ class Integrator(ABC):
         h = self.h if h is None else h
         if self.compiled:
             return self._run_fast(t, y, h, 1)
-        bounds = self._input_bounds(t, t + h)
-        self._budget_for(y, h, *bounds)
-        allowed = self._energy_jump_allowed(h, *bounds)
+        self._budget_for(y, h, *self._input_bounds(t, t + h))
+        allowed = self._energy_jump_allowed(h)
         e_old = self._energy(y) if np.isfinite(allowed) else 0.0
         try:
             y_new = self._step(t, y, h)
@@ -478,6 +523,7 @@ class Integrator(ABC):
 
             arr, par = fast.pack_arrays(model)
             chk = np.concatenate([self._chk(), np.zeros(3 + 2 * model.ndof)])
+            _disarm(chk)
             pk = (key, arr, par, chk)
             self._fast_pk = pk
         return pk[1], pk[2], pk[3]
@@ -522,18 +568,17 @@ class Integrator(ABC):
             raise ValueError(
                 f"state has shape {yc.shape}; expected ({2 * self.system.model.ndof},) = 2(n+1)"
             )
-        u_max, eta_max = float(np.max(np.abs(u))), float(np.max(np.abs(eta)))
-        self._budget_for(yc, nsteps * h, u_max, eta_max)
-        chk[5] = self.kinetic_energy_bound
-        chk[7] = self._energy_jump_allowed(h, u_max, eta_max)
-        chk[6] = self._energy(yc) if np.isfinite(chk[7]) else np.nan
-        chk[10] = self._osc_floor(h)
+        self.arm_checks(yc, h, nsteps, u, eta, chk)
         info = np.zeros(4)
-        status = self._fast_kernel(arr, par, float(h), u, eta, yc, chk, info)
+        try:
+            status = self._fast_kernel(arr, par, float(h), u, eta, yc, chk, info)
+        finally:
+            _disarm(chk)
         done = nsteps if status == 0 else int(info[1])
         self.nsteps += done
         self.system.nfev += int(info[0]) if self._fast_fevals is None else self._fast_fevals * done
         if status != 0:
+            chk[6] = np.nan  # a retry may start from another state
             self._raise_status(status, t0 + (done + 1) * h, float(info[2]), yc)
         return self._accepted(yc)
 
@@ -554,6 +599,20 @@ class Integrator(ABC):
                     "stepping with h = %.6g s instead (%d equal steps per interval)",
                     self.name, self.h, duration, h, n)
         return n, h
+
+    def arm_checks(self, y: np.ndarray, h: float, nsteps: int, u: np.ndarray, eta: np.ndarray,
+                   chk: np.ndarray) -> None:
+        """Set the physical checks of ``chk`` (from :meth:`_fast_model`) for one compiled call
+        of ``nsteps`` steps of h from ``y`` with the sampled inputs ``u``, ``eta``: the
+        kinetic-energy bound, the per-step energy allowance and the runaway detector's floor.
+        Whoever calls :meth:`_fast_kernel` directly must call this first (else those three
+        checks are off) and reset ``chk`` afterwards with :func:`_disarm`."""
+        cont = self._budget_for(y, nsteps * h, float(np.abs(u).max()), float(np.abs(eta).max()))
+        chk[5] = self.kinetic_energy_bound
+        chk[7] = self._energy_jump_allowed(h)
+        if not (cont and np.isfinite(chk[6])):  # else: the energy the last call ended with
+            chk[6] = self._energy(y) if np.isfinite(chk[7]) else np.nan
+        chk[10] = self._osc_floor(h)
 
     def advance(self, t: float, y: np.ndarray, t_end: float) -> np.ndarray:
         """Advance from t to t_end in equal steps of at most h (one compiled call when

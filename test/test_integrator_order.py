@@ -274,7 +274,7 @@ def test_compiled_failure_keeps_counters_and_raises() -> None:
     scene = load_scene("paper_free_fall", {"n_links": 80})
     model = scene.model()
     integ = make_integrator("rk4", scene.system(model=model), 0.05)
-    with pytest.raises(IntegrationError, match="non-finite") as info:
+    with pytest.raises(IntegrationError, match="numerical instability") as info:
         integ.advance(0.0, scene.initial_state(model), 31.0)
     assert 0.0 < info.value.t < 31.0
     assert integ.nsteps == round(info.value.t / 0.05) - 1
