@@ -12,8 +12,10 @@ ARGS   ?=
 ROS_PKGS := ros-jazzy-rclpy==7.1.6 ros-jazzy-common-interfaces==5.3.6 \
             ros-jazzy-rmw-fastrtps-cpp==8.4.3
 RUN_PKGS := numpy==2.4.6 scipy==1.17.1 pyyaml==6.0.3 mcap==1.6.0 mcap-ros2-support==0.6.0 \
-            numba==0.68.1 matplotlib==3.11.2
-TEST_PKGS := pytest==9.2.0 pytest-timeout==2.4.0 sympy==1.14.0 rosbags==0.11.9 ruff==0.17.6
+            numba==0.68.1 matplotlib==3.11.2 \
+            dask==2026.8.0 distributed==2026.8.0 pyarrow==26.0.1 tqdm==4.70.1
+TEST_PKGS := pytest==9.2.0 pytest-timeout==2.4.0 sympy==1.14.0 rosbags==0.11.9 ruff==0.17.6 \
+             rainflow==3.2.0
 
 # The ROS wheels install their libraries and message definitions into the venv prefix.
 export AMENT_PREFIX_PATH := $(abspath $(VENV))
@@ -22,13 +24,13 @@ export PYTHONUNBUFFERED := 1
 
 DEPS_STAMP := $(VENV)/.deps-installed
 PKG_STAMP  := $(VENV)/.pkg-installed
-SOURCES    := setup.py setup.cfg package.xml $(wildcard cable_sim/*.py config/*.yaml msg_configs/*)
+SOURCES    := setup.py setup.cfg package.xml $(shell find cable_sim config msg_configs -type f \( -name '*.py' -o -name '*.yaml' \))
 
 .PHONY: run test lint bench figures realtime-bench clean venv
 
 venv: $(PKG_STAMP)
 
-$(DEPS_STAMP):
+$(DEPS_STAMP): Makefile
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install -q --upgrade pip
 	$(PY) -m pip install -q $(ROS_PKGS) $(RUN_PKGS) $(TEST_PKGS)
@@ -55,7 +57,7 @@ bench: $(PKG_STAMP)
 
 # Node tick jitter in real time (results/realtime/).
 realtime-bench: $(PKG_STAMP)
-	$(PY) -m cable_sim.realtime_bench --seconds 30 --record
+	$(PY) -m cable_sim.analysis.realtime_bench --seconds 30 --record
 
 # README figures: the paper's anchored scene run by the node (fast clock), then the replay tool.
 figures: $(PKG_STAMP)

@@ -14,11 +14,12 @@ setup(
         ("share/ament_index/resource_index/packages", [f"resource/{PACKAGE}"]),
         (f"share/{PACKAGE}", ["package.xml"]),
         (f"share/{PACKAGE}/config", glob("config/*.yaml")),
+        (f"share/{PACKAGE}/config/studies", glob("config/studies/*.yaml")),
         (f"share/{PACKAGE}/msg_configs", glob("msg_configs/*")),
     ],
-    # Every third-party runtime import of cable_sim/*.py (the ROS packages come from the ROS
-    # install / the ros-jazzy-* wheels and are declared in package.xml). Lower bounds only; the
-    # Makefile pins the versions the project is tested with.
+    # Every third-party runtime import of cable_sim/ (the batch tool's are the 'batch' extra; the
+    # ROS packages come from the ROS install / the ros-jazzy-* wheels and are declared in
+    # package.xml). Lower bounds only; the Makefile pins the versions the project is tested with.
     install_requires=[
         "setuptools",
         "numpy>=1.26",  # everywhere
@@ -29,7 +30,11 @@ setup(
         "mcap-ros2-support>=0.5",  # replay: decoding the recorded ROS 2 messages
         "matplotlib>=3.8",  # replay figures / GIF, bench figures
     ],
-    extras_require={"bench": ["mujoco"]},
+    extras_require={
+        "bench": ["mujoco"],  # the MuJoCo side-by-side benchmark
+        # cable_sim_batch: design studies on a Dask cluster, Parquet results, progress bar
+        "batch": ["dask>=2024.1", "distributed>=2024.1", "pyarrow>=14", "tqdm>=4.60"],
+    },
     zip_safe=True,
     maintainer="cable_sim developers",
     maintainer_email="dev@cable-sim.local",
@@ -38,9 +43,10 @@ setup(
     python_requires=">=3.11",
     entry_points={
         "console_scripts": [
-            "cable_sim_node = cable_sim.node:main",
-            "cable_sim_replay = cable_sim.replay:main",
-            "cable_sim_bench = cable_sim.bench:main",
+            "cable_sim_node = cable_sim.ros.node:main",
+            "cable_sim_replay = cable_sim.analysis.replay:main",
+            "cable_sim_bench = cable_sim.analysis.bench:main",
+            "cable_sim_batch = cable_sim.analysis.batch.cli:main",
         ],
     },
 )

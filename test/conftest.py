@@ -1,7 +1,7 @@
 """Independent reference helpers for the verification suite (issue #2).
 
-Everything here is written from MODEL.md and the :class:`~cable_sim.params.CableParams` fields
-alone: no function of ``cable_sim.model`` / ``cable_sim.dynamics`` is called, so the tests that
+Everything here is written from MODEL.md and the :class:`~cable_sim.core.params.CableParams` fields
+alone: no function of ``cable_sim.core.model`` / ``cable_sim.core.dynamics`` is called, so the tests that
 use these helpers compare the implementation with a second, separately written computation.
 """
 
@@ -198,7 +198,7 @@ def anchored_scene_run():
     """The paper's anchored, forced scene run end to end (15.5 s) with its own integrator and
     step on the dense kernel, one ``Integrator.step`` per sample (shared by test_anchor_drift
     and test_scenes_run). Returns a dict with scene, model, system, t, y."""
-    from cable_sim.scenes import load_scene
+    from cable_sim.scene.scenes import load_scene
 
     scene = load_scene("paper_anchored_forced", {"kernel": "dense"})
     model = scene.model()

@@ -18,8 +18,8 @@ import yaml
 from cable_sim.analysis.batch.case import SIMULATED_COLUMNS, run_case
 from cable_sim.analysis.batch.engine import read_table, run_study
 from cable_sim.analysis.batch.study import load_study, study_from_dict
-from cable_sim.runner import Simulation
-from cable_sim.scenes import load_scene
+from cable_sim.scene.scenes import load_scene
+from cable_sim.scene.simulation import Simulation
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -173,7 +173,7 @@ def test_failing_cases_become_rows(tmp_path):
 
 
 def test_marked_case_recorded_as_mcap(tmp_path):
-    from cable_sim.replay import load_run
+    from cable_sim.analysis.replay import load_run
 
     d = dict(SMALL, grid={"wave_hs": [2.0, 3.0]}, duration=10.0, transient=2.0)
     study = study_from_dict(d)

@@ -9,7 +9,7 @@ import pytest
 
 from cable_sim.analysis.batch.extremes import gumbel_fit, mpm_rayleigh
 from cable_sim.analysis.batch.fatigue import TN_DEFAULTS, miner_damage, rainflow_cycles, tn_curve_from_dict
-from cable_sim.params import ParameterError
+from cable_sim.core.params import ParameterError
 
 rainflow = pytest.importorskip("rainflow")
 

@@ -63,7 +63,7 @@ def test_cli_rejects_bad_study_with_exit_2(tmp_path, capsys):
 
 def test_example_study_is_valid_and_small():
     from cable_sim.analysis.batch.study import load_study
-    from cable_sim.scenes import CONFIG_DIR
+    from cable_sim.scene.scenes import CONFIG_DIR
 
     s = load_study(CONFIG_DIR / "studies" / "example_study.yaml")
     cases = s.cases()

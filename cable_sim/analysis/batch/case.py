@@ -1,4 +1,4 @@
-"""Run one case headless through :class:`cable_sim.runner.Simulation` and reduce it to a result row.
+"""Run one case headless through :class:`cable_sim.scene.simulation.Simulation` and reduce it to a result row.
 
 The case is given as a plain dict (picklable, no file access needed on the worker: the scene's
 key/values are already resolved). A failure (bad parameters, blow-up, non-finite tension) gives a

@@ -38,7 +38,8 @@ from ...params import CableParams, ParameterError
 from ...scenes import SIM_DEFAULTS, read_parameter_file, scene_path
 from .fatigue import TNCurve, tn_curve_from_dict
 
-#: Scene keys read by the built-in input signals (cable_sim.inputs.make_signal), besides the scene file's.
+#: Scene keys read by the built-in input signals (cable_sim.core.inputs.make_signal), besides the
+#: scene file's.
 SIGNAL_KEYS = tuple(f"{p}_{k}" for p in ("wave", "heave_force")
                     for k in ("hs", "tp", "gamma", "seed", "ramp", "amplitude", "period", "phase", "value"))
 

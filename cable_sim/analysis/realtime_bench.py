@@ -1,0 +1,103 @@
+"""Real-time tick jitter of the node: ``python -m cable_sim.analysis.realtime_bench [--seconds 30]``.
+
+Runs :class:`cable_sim.ros.node.CableSimNode` in this process in real-time mode on a scene, records
+the wall time of every timer tick, and reports the tick interval p50/p99/max, the deviation
+from the nominal period, the step cost and the overruns. Writes CSV + PNG under
+``results/realtime/``. Figures are measured, not asserted (speed lives in benchmarks).
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import os
+import random
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run the benchmark and print the figures."""
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--scene", default="mooring_line")
+    ap.add_argument("--seconds", type=float, default=30.0)
+    ap.add_argument("--record", action="store_true", help="record to MCAP while measuring")
+    ap.add_argument("--out", default="results/realtime")
+    a = ap.parse_args(argv)
+    os.environ.setdefault("ROS_DOMAIN_ID", str(random.randint(101, 200)))
+    os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+    os.environ.setdefault("AMENT_PREFIX_PATH", sys.prefix)
+
+    import rclpy
+    from rclpy.executors import SingleThreadedExecutor
+    from rclpy.parameter import Parameter
+
+    from cable_sim.ros.node import CableSimNode
+
+    out = Path(a.out)
+    out.mkdir(parents=True, exist_ok=True)
+    rclpy.init()
+    node = CableSimNode(parameter_overrides=[
+        Parameter("scene", value=a.scene), Parameter("clock_mode", value="realtime"),
+        Parameter("record", value=a.record),
+        Parameter("record_path", value=str(out / "bench.mcap")),
+    ])
+    ex = SingleThreadedExecutor()
+    ex.add_node(node)
+    t_end = time.monotonic() + a.seconds
+    try:
+        while time.monotonic() < t_end:
+            ex.spin_once(timeout_sec=0.05)
+        diag = node.diagnostics_values()
+        ticks = np.array(node.tick_times)
+    finally:
+        node.close()
+        ex.shutdown()
+        node.destroy_node()
+        rclpy.try_shutdown()
+    intervals = np.diff(ticks) * 1e3
+    period = node.tick_period * 1e3
+    dev = intervals - period
+    stats = {
+        "scene": a.scene, "seconds": a.seconds, "record": a.record, "n_links": node.sim.model.n,
+        "step_s": node.h, "tick_period_ms": period, "ticks": len(intervals),
+        "interval_p50_ms": float(np.percentile(intervals, 50)),
+        "interval_p99_ms": float(np.percentile(intervals, 99)),
+        "interval_max_ms": float(intervals.max()),
+        "abs_dev_p50_ms": float(np.percentile(np.abs(dev), 50)),
+        "abs_dev_p99_ms": float(np.percentile(np.abs(dev), 99)),
+        "step_cost_us": float(diag["step_cost_us"]),
+        "real_time_factor": float(diag["real_time_factor"]),
+        "overruns": int(diag["overruns"]),
+    }
+    for k, v in stats.items():
+        print(f"{k:18s} {v}")
+    with open(out / "jitter_summary.csv", "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=list(stats))
+        w.writeheader()
+        w.writerow(stats)
+    np.savetxt(out / "tick_intervals_ms.csv", intervals, fmt="%.4f", header="tick_interval_ms")
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(1, 2, figsize=(10, 3.5))
+    ax[0].plot(intervals, lw=0.5)
+    ax[0].axhline(period, color="k", ls="--", lw=0.8)
+    ax[0].set(xlabel="tick", ylabel="interval [ms]", title=f"{a.scene}: timer tick intervals")
+    ax[1].hist(intervals, bins=100, log=True)
+    ax[1].set(xlabel="interval [ms]", ylabel="count",
+              title=f"p50 {stats['interval_p50_ms']:.2f}, p99 {stats['interval_p99_ms']:.2f}, "
+                    f"max {stats['interval_max_ms']:.2f} ms")
+    fig.tight_layout()
+    fig.savefig(out / "tick_jitter.png", dpi=110)
+    print(f"wrote {out / 'jitter_summary.csv'}, {out / 'tick_jitter.png'}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

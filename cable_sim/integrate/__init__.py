@@ -1,0 +1,17 @@
+"""Time integration: the :class:`Integrator` contract (:mod:`.base`, its acceptance checks in
+:mod:`.checks`, failures in :mod:`.errors`), explicit schemes (:mod:`.explicit`), linearly
+implicit schemes on the O(n) operator (:mod:`.implicit`), the adaptive scipy reference
+(:mod:`.reference`) and one registry by name (:mod:`.registry`).
+
+May import :mod:`cable_sim.core`; never rclpy, matplotlib or mcap. Modules inside this package
+import each other's modules directly, never this ``__init__``.
+"""
+
+from cable_sim.integrate.base import Integrator, Trajectory
+from cable_sim.integrate.errors import IntegrationError
+from cable_sim.integrate.explicit import RK4, SemiImplicitEuler
+from cable_sim.integrate.reference import ScipyIntegrator
+from cable_sim.integrate.registry import INTEGRATORS, make_integrator
+
+__all__ = ["INTEGRATORS", "RK4", "IntegrationError", "Integrator", "ScipyIntegrator",
+           "SemiImplicitEuler", "Trajectory", "make_integrator"]

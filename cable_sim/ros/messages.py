@@ -1,0 +1,123 @@
+"""ROS messages of the cable_sim interface, built from :class:`cable_sim.scene.simulation.Outputs`.
+
+One place for the message layout (see ``msg_configs/interface.yaml``): the node publishes these,
+and the headless recorder of :mod:`cable_sim.analysis.replay` writes the same bytes without a ROS graph.
+Message modules are imported inside the functions so that importing this module needs no ROS.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from typing import Any
+
+import numpy as np
+
+from cable_sim.core.dynamics import relative_angles
+
+
+def joint_state_arrays(out: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """JointState position, velocity, effort of :class:`cable_sim.scene.simulation.Outputs` (interface
+    convention: heave then relative angles; effort = applied heave force, joint torques)."""
+    q, qd = out.q, out.qd
+    n = len(q) - 1
+    pos = np.empty(n + 1)
+    vel = np.empty(n + 1)
+    pos[0] = q[0]
+    pos[1:] = relative_angles(q[1:])
+    vel[0] = qd[0]
+    vel[1:] = relative_angles(qd[1:])
+    eff = np.empty(n + 1)
+    eff[0] = out.inputs.heave_force
+    eff[1:] = out.joint_torques
+    return pos, vel, eff
+
+
+def _header(stamp_ns: int, frame_id: str):
+    from std_msgs.msg import Header
+
+    h = Header(frame_id=frame_id)
+    h.stamp.sec, h.stamp.nanosec = divmod(int(stamp_ns), 1_000_000_000)
+    return h
+
+
+def build_joint_state(out: Any, stamp_ns: int, frame_id: str = "world"):
+    """sensor_msgs/JointState of the interface (heave then relative angles)."""
+    from sensor_msgs.msg import JointState
+
+    pos, vel, eff = joint_state_arrays(out)
+    n = len(pos) - 1
+    return JointState(header=_header(stamp_ns, frame_id),
+                      name=["platform_heave"] + [f"joint_{i + 1}" for i in range(n)],
+                      position=pos.tolist(), velocity=vel.tolist(), effort=eff.tolist())
+
+
+def build_wrench(force: np.ndarray, stamp_ns: int, frame_id: str = "world"):
+    """geometry_msgs/WrenchStamped with force (F_x, 0, F_z)."""
+    from geometry_msgs.msg import WrenchStamped
+
+    w = WrenchStamped(header=_header(stamp_ns, frame_id))
+    w.wrench.force.x = float(force[0])
+    w.wrench.force.z = float(force[1])
+    return w
+
+
+def build_float_array(values: Iterable[float]):
+    """std_msgs/Float64MultiArray."""
+    from std_msgs.msg import Float64MultiArray
+
+    return Float64MultiArray(data=[float(v) for v in values])
+
+
+def build_markers(out: Any, model: Any, stamp_ns: int, frame_id: str = "world"):
+    """visualization_msgs/MarkerArray: cable line strip coloured by tension, end, platform, water."""
+    from geometry_msgs.msg import Point
+    from std_msgs.msg import ColorRGBA
+    from visualization_msgs.msg import Marker, MarkerArray
+
+    hdr = _header(stamp_ns, frame_id)
+    p = out.joint_positions
+    ten = np.abs(out.axial_tension)
+    tmax = float(ten.max()) if len(ten) and ten.max() > 0 else 1.0
+    line = Marker(header=hdr, ns="cable", id=0, type=Marker.LINE_STRIP, action=Marker.ADD)
+    line.pose.orientation.w = 1.0
+    line.scale.x = 0.5
+    line.points = [Point(x=float(x), y=0.0, z=float(z)) for x, z in p]
+    tn = np.concatenate([ten[:1], ten]) / tmax
+    line.colors = [ColorRGBA(r=float(a), g=0.2, b=float(1.0 - a), a=1.0) for a in tn]
+    end = Marker(header=hdr, ns="end", id=1, action=Marker.ADD,
+                 type=Marker.CUBE if model.end != 0 else Marker.SPHERE)
+    end.pose.position.x, end.pose.position.z = float(p[-1, 0]), float(p[-1, 1])
+    end.pose.orientation.w = 1.0
+    end.scale.x = end.scale.y = end.scale.z = 2.0
+    end.color = ColorRGBA(r=0.3, g=0.3, b=0.3, a=1.0)
+    plat = Marker(header=hdr, ns="platform", id=2, type=Marker.CUBE, action=Marker.ADD)
+    plat.pose.position.x, plat.pose.position.z = float(p[0, 0]), float(p[0, 1])
+    plat.pose.orientation.w = 1.0
+    plat.scale.x, plat.scale.y, plat.scale.z = 8.0, 8.0, 3.0
+    plat.color = ColorRGBA(r=0.9, g=0.5, b=0.1, a=1.0)
+    water = Marker(header=hdr, ns="water", id=3, type=Marker.LINE_STRIP, action=Marker.ADD)
+    water.pose.orientation.w = 1.0
+    water.scale.x = 0.2
+    eta = float(out.inputs.wave_elevation)
+    x0, x1 = float(min(p[:, 0].min(), 0.0)) - 20.0, float(p[:, 0].max()) + 20.0
+    water.points = [Point(x=x0, z=eta), Point(x=x1, z=eta)]
+    water.color = ColorRGBA(r=0.1, g=0.4, b=1.0, a=0.6)
+    return MarkerArray(markers=[line, end, plat, water])
+
+
+def build_diagnostics(values: dict[str, Any], stamp_ns: int, name: str = "cable_sim"):
+    """diagnostic_msgs/DiagnosticArray with one status holding ``values``."""
+    from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+
+    st = DiagnosticStatus(level=DiagnosticStatus.OK, name=name, message="ok", hardware_id="cable_sim")
+    st.values = [KeyValue(key=str(k), value=str(v)) for k, v in values.items()]
+    return DiagnosticArray(header=_header(stamp_ns, ""), status=[st])
+
+
+def clock_message(stamp_ns: int):
+    """rosgraph_msgs/Clock at ``stamp_ns``."""
+    from rosgraph_msgs.msg import Clock
+
+    c = Clock()
+    c.clock.sec, c.clock.nanosec = divmod(int(stamp_ns), 1_000_000_000)
+    return c

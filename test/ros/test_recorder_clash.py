@@ -1,0 +1,206 @@
+"""Recordings never destroy each other (issue 9, item 3).
+
+- Two nodes of the default scene started at the same instant in one folder with distinct
+  namespaces write two distinct, complete MCAP files, each with its own messages.
+- A node given an existing ``record_path`` leaves that file untouched and records to a new name,
+  which it logs and reports in its diagnostics.
+- :class:`RunRecorder` never opens an existing file for writing (unit level).
+
+The node runs as the installed console script in a subprocess with default SIGINT/SIGTERM
+handling; every process is killed and reaped in ``finally``.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import signal
+import subprocess
+import threading
+from pathlib import Path
+
+import pytest
+from ros_util import CONFIG, isolate_ros, node_executable
+from std_msgs.msg import Float64
+
+from cable_sim.ros.recorder import RunRecorder
+
+DOMAIN = isolate_ros()
+JS_COUNT = 151  # joint states at 50 Hz over t = 0 .. 3 s inclusive (duration 3 s)
+
+
+def _default_signals() -> None:
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+
+
+def _node_cmd(*ros_args: str) -> list[str]:
+    return [node_executable(), "--ros-args", "--params-file", str(CONFIG / "mooring_line.yaml"),
+            "-p", "clock_mode:=fast", "-p", "duration:=3.0", "-p", "exit_at_end:=true", *ros_args]
+
+
+def _popen(cmd: list[str], cwd: Path) -> subprocess.Popen:
+    env = dict(os.environ, ROS_DOMAIN_ID=str(DOMAIN), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST",
+               PYTHONUNBUFFERED="1")
+    return subprocess.Popen(cmd, cwd=cwd, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                            text=True, preexec_fn=_default_signals)
+
+
+def _run_all(cmds: list[list[str]], cwd: Path, timeout: float = 180.0) -> list[tuple[int, str]]:
+    """Start every command at the same instant, wait for all; kill and reap in any case."""
+    procs: list[subprocess.Popen] = []
+    outs: list[str] = [""] * len(cmds)
+    try:
+        go = threading.Barrier(len(cmds))
+
+        def start(i: int) -> None:
+            go.wait()
+            procs.append(_popen(cmds[i], cwd))
+
+        threads = [threading.Thread(target=start, args=(i,)) for i in range(len(cmds))]
+        for t in threads:
+            t.start()
+        for t in threads:
+            t.join()
+        procs.sort(key=lambda p: cmds.index(p.args))
+        for i, p in enumerate(procs):
+            outs[i], _ = p.communicate(timeout=timeout)
+        return [(p.returncode, o) for p, o in zip(procs, outs, strict=True)]
+    finally:
+        for p in procs:
+            if p.poll() is None:
+                p.kill()
+            p.wait()
+            if p.stdout is not None:
+                p.stdout.close()
+
+
+def _read_rosbags(path: Path) -> tuple[dict[str, int], dict[str, dict[str, str]]]:
+    """Message count per topic (every message deserialised by rosbags) and the MCAP metadata."""
+    from mcap.reader import make_reader
+    from rosbags.highlevel import AnyReader
+
+    counts: dict[str, int] = {}
+    with AnyReader([path]) as r:
+        for c, _, raw in r.messages():
+            r.deserialize(raw, c.msgtype)
+            counts[c.topic] = counts.get(c.topic, 0) + 1
+    with open(path, "rb") as f:
+        meta = {m.name: dict(m.metadata) for m in make_reader(f).iter_metadata()}
+    return counts, meta
+
+
+def _logged_path(out: str, cwd: Path) -> Path:
+    m = re.search(r"recording to (\S+\.mcap)", out)
+    assert m, out
+    p = Path(m.group(1))
+    return p if p.is_absolute() else cwd / p
+
+
+def test_two_nodes_started_together_record_to_distinct_complete_files(tmp_path):
+    results = _run_all([_node_cmd("-r", "__ns:=/leg1"), _node_cmd("-r", "__ns:=/leg2")], tmp_path)
+    for code, out in results:
+        assert code == 0, out
+    files = sorted((tmp_path / "runs").glob("*.mcap"))
+    assert len(files) == 2, files
+    for leg, (_, out) in zip(("leg1", "leg2"), results, strict=True):
+        path = _logged_path(out, tmp_path)
+        assert path.resolve() in {f.resolve() for f in files}, (path, files)
+        assert re.fullmatch(rf"mooring_line_{leg}\.cable_sim_node_\d{{8}}-\d{{6}}-\d{{6}}\.mcap", path.name)
+        counts, meta = _read_rosbags(path)
+        other = "leg2" if leg == "leg1" else "leg1"
+        assert counts.get(f"/{leg}/joint_states") == JS_COUNT, counts
+        assert counts.get(f"/{leg}/fairlead_tension", 0) > 0, counts
+        assert not any(t.startswith(f"/{other}/") for t in counts), counts
+        assert meta["run"]["node"] == f"/{leg}/cable_sim_node", meta["run"]
+
+
+def test_node_never_overwrites_an_existing_record_path(tmp_path):
+    path = tmp_path / "run.mcap"
+    original = b"not a recording: must survive\n" * 100
+    path.write_bytes(original)
+    [(code, out)] = _run_all([_node_cmd("-p", f"record_path:={path}")], tmp_path)
+    assert code == 0, out
+    assert path.read_bytes() == original
+    new = tmp_path / "run-1.mcap"
+    assert "already exists" in out and str(new) in out, out
+    assert _logged_path(out, tmp_path) == new
+    counts, _ = _read_rosbags(new)
+    assert counts.get("/joint_states") == JS_COUNT, counts
+
+
+def test_recorder_never_opens_an_existing_file(tmp_path):
+    path = tmp_path / "x.mcap"
+    original = bytes(range(256)) * 40
+    path.write_bytes(original)
+    (tmp_path / "x-1.mcap").write_bytes(b"also taken")
+    logs: list[str] = []
+    with RunRecorder(path, logger=logs.append) as rec:
+        for i in range(50):
+            rec.write("/x", Float64(data=float(i)), i)
+    assert path.read_bytes() == original
+    assert (tmp_path / "x-1.mcap").read_bytes() == b"also taken"
+    assert rec.path == tmp_path / "x-2.mcap" and rec.requested_path == path
+    assert rec.stats["path"] == str(tmp_path / "x-2.mcap")
+    assert any("x.mcap already exists" in m and "x-2.mcap" in m for m in logs), logs
+    counts, _ = _read_rosbags(rec.path)
+    assert counts == {"/x": 50}
+
+
+def test_recorders_racing_for_one_name_get_distinct_files(tmp_path):
+    path = tmp_path / "same.mcap"
+    n = 6
+    go = threading.Barrier(n)
+    recs: list[RunRecorder] = []
+    lock = threading.Lock()
+
+    def make(i: int) -> None:
+        go.wait()
+        r = RunRecorder(path, logger=lambda _m: None)
+        r.write("/who", Float64(data=float(i)), 1)
+        with lock:
+            recs.append(r)
+
+    threads = [threading.Thread(target=make, args=(i,)) for i in range(n)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    for r in recs:
+        r.close()
+    assert len({r.path for r in recs}) == n
+    for r in recs:
+        assert _read_rosbags(r.path)[0] == {"/who": 1}
+
+
+def test_directory_path_is_still_an_error(tmp_path):
+    from cable_sim.ros.recorder import RecorderError
+
+    with pytest.raises(RecorderError, match="it is a directory"):
+        RunRecorder(tmp_path)
+
+
+def test_packed_chunk_indexes_give_the_stock_writers_bytes(tmp_path, monkeypatch):
+    """The recorder keeps the mcap writer's per-chunk indexes packed (bounded memory over long
+    runs); the file must be byte for byte what the unmodified writer produces."""
+    from cable_sim.ros import recorder
+
+    def record(path: Path) -> RunRecorder:
+        rec = RunRecorder(path, {"m": {"k": "v"}}, chunk_size=2000, logger=lambda _m: None)
+        for i in range(3000):
+            rec.write(f"/t{i % 5}", Float64(data=float(i)), i)
+        rec.close()
+        return rec
+
+    packed = record(tmp_path / "packed.mcap")
+    assert len(packed._writer._Writer__chunk_indices) > 20  # many chunks: the index matters
+    monkeypatch.setattr(recorder, "_pack_chunk_indexes", lambda _w: None)
+    stock = record(tmp_path / "stock.mcap")
+    assert isinstance(stock._writer._Writer__chunk_indices, list)
+    assert packed.path.read_bytes() == stock.path.read_bytes()
+    from mcap.reader import make_reader
+
+    with open(packed.path, "rb") as f:  # the indexed reader uses the chunk indexes
+        r = make_reader(f)
+        assert len(r.get_summary().chunk_indexes) == len(packed._writer._Writer__chunk_indices)
+        assert sum(1 for _ in r.iter_messages(topics=["/t3"])) == 600
