@@ -42,8 +42,9 @@ def _installed_is_current():
     installed = [p for p in (VENV / "lib").glob("python3*/site-packages/cable_sim/ros/recorder.py")]
     if not installed:
         return True
-    return all(p.read_bytes() == (ROOT / "cable_sim" / "ros" / "recorder.py").read_bytes() for p in installed) or (
-        spec is not None and Path(spec.origin).resolve() == (ROOT / "cable_sim" / "ros" / "recorder.py").resolve())
+    source = ROOT / "cable_sim" / "ros" / "recorder.py"
+    return all(p.read_bytes() == source.read_bytes() for p in installed) or (
+        spec is not None and Path(spec.origin).resolve() == source.resolve())
 
 
 def launch(scene, record_path, *params):
