@@ -85,6 +85,21 @@ def test_no_ros_plotting_or_mcap_below_ros(mod):
     assert not bad, f"{mod} imports {bad}; only cable_sim.ros / cable_sim.analysis may"
 
 
+@pytest.mark.parametrize("mod", sorted(_modules()))
+def test_every_package_import_resolves(mod):
+    """An import of ``cable_sim.X`` names a module of the package (or a name a module defines):
+    a stale path left behind by a move fails here, not only when that line runs."""
+    mods = _modules()
+    missing = []
+    for name in sorted(_imports(mod, mods[mod])):
+        if not name.startswith("cable_sim") or name in mods:
+            continue
+        parent = name.rpartition(".")[0]  # ``from pkg.module import name``: a name, not a module
+        if parent not in mods:
+            missing.append(name)
+    assert not missing, f"{mod} imports modules that do not exist: {missing}"
+
+
 def test_no_import_circle():
     graph = _graph()
     state: dict[str, int] = {}
@@ -125,3 +140,6 @@ def test_checker_sees_a_circle_and_an_upward_import(tmp_path, monkeypatch):
         test_imports_point_down("cable_sim.core.a")
     with pytest.raises(AssertionError, match="matplotlib"):
         test_no_ros_plotting_or_mcap_below_ros("cable_sim.scene.s")
+    (pkg / "scene" / "t.py").write_text("from ..params import X\n")
+    with pytest.raises(AssertionError, match="do not exist"):
+        test_every_package_import_resolves("cable_sim.scene.t")

@@ -61,8 +61,8 @@ def simulate_tensions(scene_values: dict[str, Any], duration: float, interval: f
 
     Returns (t, fairlead, anchor, simulation). Raises on failure (the caller turns it into a row).
     """
-    from ...runner import Simulation
-    from ...scenes import scene_from_dict
+    from cable_sim.scene.scenes import scene_from_dict
+    from cable_sim.scene.simulation import Simulation
 
     sim = Simulation(scene_from_dict(dict(scene_values)))
     n = int(math.floor(duration / interval + 1e-9))
@@ -76,7 +76,7 @@ def simulate_tensions(scene_values: dict[str, Any], duration: float, interval: f
         fair[k] = out.fairlead_tension
         anch[k] = float(np.hypot(*out.anchor_force))
         if not (math.isfinite(fair[k]) and math.isfinite(anch[k])):
-            from ...integrators import IntegrationError
+            from cable_sim.integrate import IntegrationError
 
             raise IntegrationError(sim.t, "non-finite tension (blow-up)")
     return t, fair, anch, sim
@@ -95,8 +95,8 @@ def _stats(prefix: str, x: np.ndarray, tn: TNCurve, area: float, window: float) 
 
 def _record(spec: dict[str, Any]) -> dict[str, Any]:
     """Record the case as MCAP in the node's format (a second, headless run with the recorder)."""
-    from ...replay import record_headless
-    from ...scenes import scene_from_dict
+    from cable_sim.analysis.replay import record_headless
+    from cable_sim.scene.scenes import scene_from_dict
 
     try:
         Path(spec["mcap_path"]).parent.mkdir(parents=True, exist_ok=True)

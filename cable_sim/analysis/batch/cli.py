@@ -5,7 +5,8 @@ from __future__ import annotations
 import argparse
 import sys
 
-from ...params import ParameterError
+from cable_sim.core.params import ParameterError
+
 from .engine import run_study
 from .study import load_study
 

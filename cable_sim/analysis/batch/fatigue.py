@@ -28,7 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ...params import ParameterError
+from cable_sim.core.params import ParameterError
 
 #: (a_D, m, legs) per component type; legs = 2 for chain (two legs per link), 1 for rope.
 TN_DEFAULTS: dict[str, tuple[float, float, int]] = {

@@ -34,8 +34,9 @@ from typing import Any
 
 import yaml
 
-from ...params import CableParams, ParameterError
-from ...scenes import SIM_DEFAULTS, read_parameter_file, scene_path
+from cable_sim.core.params import CableParams, ParameterError
+from cable_sim.scene.scenes import SIM_DEFAULTS, read_parameter_file, scene_path
+
 from .fatigue import TNCurve, tn_curve_from_dict
 
 #: Scene keys read by the built-in input signals (cable_sim.core.inputs.make_signal), besides the
