@@ -35,7 +35,7 @@ from cable_sim.core.statics import static_equilibrium
 from cable_sim.core.system import CableSystem
 from cable_sim.integrate import Integrator, make_integrator
 
-CONFIG_DIR = Path(__file__).resolve().parent.parent / "config"
+CONFIG_DIR = Path(__file__).resolve().parents[2] / "config"
 
 #: Simulation keys a scene may set, with their defaults.
 SIM_DEFAULTS: dict[str, Any] = {
