@@ -1,10 +1,12 @@
-"""Bad parameters raise :class:`ParameterError` naming the parameter, the value and the range.
+"""Bad parameters raise :class:`ParameterError` naming the parameter, the value and the range
+(merged from test_params and test_verify_params, issue 10).
 
 Reference: the allowed ranges stated in MODEL.md / the CableParams docstring (n integer >= 1;
 lengths, masses, diameters, densities > 0; stiffnesses and dampings >= 0; everything finite;
 drag model, end condition and stiffness mode from their lists; per-link arrays of length n;
 switches true/false). One test per class of bad value; each checks the exception type, its
-``name``/``value`` attributes and that the message contains the name, the value and the range.
+``name``/``value``/``allowed`` attributes and that the message itself contains the name, the
+value and the range (a user reads the message, not the attributes).
 """
 
 from __future__ import annotations
@@ -36,7 +38,7 @@ def expect_error(kwargs: dict, name: str, allowed_words: tuple[str, ...], shown:
     assert shown in msg, msg
     assert "allowed" in msg, msg
     for w in allowed_words:
-        assert w in msg, (w, msg)
+        assert w in msg and w in err.allowed, (w, msg)
     return err
 
 
@@ -73,11 +75,14 @@ def test_non_positive_length_mass_diameter_density(name: str, value: float) -> N
     expect_error({name: value}, name, ("> 0",))
 
 
-def test_non_positive_link_length_in_array() -> None:
+@pytest.mark.parametrize("name, value", [("link_lengths", -2.0), ("diameter", 0.0),
+                                         ("diameter", -1.5), ("line_density", 0.0),
+                                         ("line_density", -1.5)])
+def test_non_positive_entry_in_per_link_array(name: str, value: float) -> None:
     """An entry of a per-link array is named with its index."""
-    err = expect_error({"n_links": 3, "link_lengths": (1.0, -2.0, 1.0)}, "link_lengths[1]",
-                       ("> 0",), shown="-2.0")
-    assert err.value == -2.0
+    err = expect_error({"n_links": 3, name: (1.0, value, 1.0)}, f"{name}[1]", ("> 0",),
+                       shown=repr(value))
+    assert err.value == value
 
 
 @pytest.mark.parametrize(
@@ -88,13 +93,16 @@ def test_non_positive_link_length_in_array() -> None:
 )
 def test_nan(name: str) -> None:
     """NaN is refused for every real parameter ('finite')."""
-    expect_error({name: float("nan")}, name, ("finite",), shown="nan")
+    err = expect_error({name: float("nan")}, name, ("finite",), shown="nan")
+    assert math.isnan(err.value)
 
 
 @pytest.mark.parametrize(
     "name, value",
     [("total_length", math.inf), ("joint_damping", math.inf), ("current_speed", -math.inf),
-     ("anchor_z", -math.inf), ("heave_stiffness", math.inf), ("paper_anchor_mass", math.inf)],
+     ("anchor_z", -math.inf), ("heave_stiffness", math.inf), ("paper_anchor_mass", math.inf),
+     ("total_length", -math.inf), ("heave_stiffness", -math.inf), ("anchor_z", math.inf),
+     ("current_speed", math.inf)],
 )
 def test_inf(name: str, value: float) -> None:
     """+-Inf is refused ('finite')."""
@@ -129,18 +137,17 @@ def test_unknown_choice(name: str, value, options) -> None:
 
 @pytest.mark.parametrize(
     "name, value",
-    [("diameter", (0.01, 0.01)), ("line_density", [7850.0] * 5), ("link_lengths", (1.0,) * 4)],
+    [("diameter", (0.01, 0.01)), ("line_density", [7850.0] * 5), ("link_lengths", (1.0,) * 4),
+     ("link_lengths", (1.0, 2.0)), ("diameter", (0.01,) * 4)],
 )
 def test_wrong_per_link_array_length(name: str, value) -> None:
     """A per-link array for n = 3 must have 3 entries; the message states n."""
     expect_error({"n_links": 3, name: value}, name, ("n_links = 3",))
 
 
-@pytest.mark.parametrize(
-    "name, value",
-    [("buoyancy", 1), ("heave_locked", "true"), ("joint_springs", None), ("joint_dampers", 0.0),
-     ("platform_spring", "yes"), ("platform_damper", 1), ("wave_coupling", "False")],
-)
+@pytest.mark.parametrize("value", [1, "true", None, 0.0, "yes", "False"])
+@pytest.mark.parametrize("name", ["buoyancy", "heave_locked", "joint_springs", "joint_dampers",
+                                  "platform_spring", "platform_damper", "wave_coupling"])
 def test_non_bool_switch(name: str, value) -> None:
     """Switches must be real booleans (no truthiness of 1, "true", "False", None)."""
     expect_error({name: value}, name, ("true or false",))
@@ -153,9 +160,18 @@ def test_numpy_bool_switch_accepted() -> None:
 
 def test_anchored_without_free_dof() -> None:
     """An anchored line needs a free degree of freedom (n >= 2, or >= 3 with the top locked)."""
-    expect_error({"n_links": 1, "end_condition": "anchored"}, "n_links", (">= 2",))
+    expect_error({"n_links": 1, "end_condition": "anchored"}, "n_links", ("free degree", ">= 2"))
     expect_error({"n_links": 2, "end_condition": "anchored", "heave_locked": True}, "n_links",
-                 (">= 3",))
+                 ("free degree", ">= 3"))
+
+
+def test_good_boundary_values_are_accepted() -> None:
+    """The limits themselves are legal: the checks are not merely rejecting everything."""
+    CableParams(n_links=1)
+    CableParams(n_links=2, end_condition="anchored")
+    CableParams(n_links=3, end_condition="anchored", heave_locked=True)
+    CableParams(joint_stiffness=0.0, pin_stiffness=0.0, heave_damping=0.0, current_speed=-1.0)
+    CableParams(n_links=2, link_lengths=(1.0, 2.0))
 
 
 def test_scene_file_values_are_validated() -> None:
