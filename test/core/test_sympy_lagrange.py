@@ -1,4 +1,5 @@
-"""The dense dynamics against an independent symbolic Euler-Lagrange derivation (sympy).
+"""The dynamics against an independent symbolic Euler-Lagrange derivation (sympy): the one home
+of this reference (merged from test_sympy_dynamics and test_verify_sympy, issue 10).
 
 Reference: inside this file, the positions of the platform, of every link centre and of the
 terminal load are written in sympy, the kinetic energy T (translation + spin m l^2/12 of each
@@ -9,7 +10,9 @@ Rayleigh function, Morison drag from F_i at each centre mapped by the sympy Jaco
 (virtual work), never through ``dynamics.drag_force``'s reverse cumulative sums. The numeric
 link constants (m_i, m~_i, k_i, ...) come from the parameters via ``conftest.RefLine``, not from
 ``CableModel``. Agreement is required to 1e-9 relative for n = 2..5 at random states, with
-unequal per-link lengths, diameters and densities.
+unequal per-link lengths, diameters and densities. The accelerations of both kernels (dense
+reference and compiled O(n)) must solve the sympy equations of motion (residual to 1e-9) and
+equal their solution M^-1 Q (to 1e-8 of the largest entry).
 """
 
 from __future__ import annotations
@@ -161,7 +164,7 @@ def test_mass_velocity_gravity_match_euler_lagrange(n: int, end: str) -> None:
 
 
 @pytest.mark.parametrize("mode", ["per_joint", "bending"])
-@pytest.mark.parametrize("n", [2, 5])
+@pytest.mark.parametrize("n", [2, 3, 4, 5])
 def test_spring_and_damper_forces(n: int, mode: str) -> None:
     """K q and C qd equal the gradients of the spring energy and of the Rayleigh function.
 
@@ -231,12 +234,17 @@ def test_paper_drag_formula(n: int) -> None:
     assert not np.any(dynamics.drag_force(none, q, qd))
 
 
+@pytest.mark.parametrize("kernel", ["dense", "fast"])
 @pytest.mark.parametrize("drag", ["paper", "morison"])
-@pytest.mark.parametrize("n", [3, 5])
-def test_forward_dynamics_solves_reference_equations(n: int, drag: str) -> None:
-    """qdd from forward_dynamics satisfies the reference equation
+@pytest.mark.parametrize("n", [2, 3, 4, 5])
+def test_forward_dynamics_solves_reference_equations(n: int, drag: str, kernel: str) -> None:
+    """qdd from the kernel's forward dynamics satisfies the reference equation
     M qdd + b + g + dV_s/dq + dR/dqd = Q_ext + Q_drag, with Q_ext,0 = u + k_m eta (wave spring),
-    every term from the sympy derivation / independent formulae."""
+    every term from the sympy derivation / independent formulae (residual to 1e-9 of the terms),
+    and equals the reference solution qdd_ref = M^-1 (Q - ...) to 1e-8 of max|qdd_ref|."""
+    from cable_sim.core import kernel as fast
+
+    forward = {"dense": dynamics.forward_dynamics, "fast": fast.forward_dynamics}[kernel]
     rng = np.random.default_rng(50 + n)
     params = make_params(n, rng, drag_model=drag, drag_cn=1.1, drag_ct=0.02, heave_stiffness=900.0,
                          heave_damping=150.0)
@@ -248,15 +256,18 @@ def test_forward_dynamics_solves_reference_equations(n: int, drag: str) -> None:
     inp = Inputs(heave_force=1234.5, wave_elevation=0.37)
     for _ in range(3):
         q, qd = random_state(n, rng)
-        qdd, lam = dynamics.forward_dynamics(model, q, qd, inp)
+        qdd, lam = forward(model, q, qd, inp)
         assert not np.any(lam)
         M = np.array(fns["M"](q, par), dtype=float)
-        lhs = (M @ qdd + np.ravel(fns["b"](q, qd, par)) + np.ravel(fns["g"](q, par))
-               + np.ravel(fK(q, ref.k, ref.km)) + np.ravel(fC(qd, ref.c, ref.cm)))
+        forces = (np.ravel(fns["b"](q, qd, par)) + np.ravel(fns["g"](q, par))
+                  + np.ravel(fK(q, ref.k, ref.km)) + np.ravel(fC(qd, ref.c, ref.cm)))
         rhs = ref.drag_generalised(q, qd)
         rhs[0] += 1234.5 + ref.km * 0.37
         scale = np.max(np.abs(M @ qdd)) + np.max(np.abs(rhs))
-        np.testing.assert_allclose(lhs, rhs, rtol=0, atol=RTOL * scale)
+        np.testing.assert_allclose(M @ qdd + forces, rhs, rtol=0, atol=RTOL * scale)
+        qdd_ref = np.linalg.solve(M, rhs - forces)
+        err = np.max(np.abs(qdd - qdd_ref)) / np.max(np.abs(qdd_ref))
+        assert err <= 1e-8, f"{kernel}: relative error of qdd {err:.3e} > 1e-8"
 
 
 def test_n5_derivation_is_fast() -> None:
