@@ -1,6 +1,6 @@
 """Benchmark: what recording costs the simulation loop (``python -m cable_sim.analysis.recorder_bench``).
 
-Runs the node's publish loop without the node (:func:`cable_sim.analysis.replay.record_headless`:
+Runs the node's publish loop without the node (:func:`cable_sim.analysis.replay.headless.record_headless`:
 simulation + every message the node publishes, built as real ROS messages, published with real
 rclpy publishers in an isolated localhost domain) with recording off and on
 (:class:`cable_sim.ros.recorder.RunRecorder`, zstd chunks, fsync every second), at n = 80 by
@@ -29,7 +29,7 @@ from typing import Any
 
 import numpy as np
 
-from cable_sim.analysis.replay import record_headless
+from cable_sim.analysis.replay.headless import record_headless
 from cable_sim.ros.messages import (
     build_diagnostics,
     build_float_array,

@@ -41,7 +41,7 @@ MJ_COLUMNS = {"engine", "integrator", "n", "step", "duration", "status", "repeat
      "bending_damping": 30.0, "pin_stiffness": 0.0, "pin_damping": 0.0},
 ])
 def test_mjcf_chain_matches_dense_dynamics(overrides):
-    from cable_sim.analysis import mujoco_chain
+    from cable_sim.analysis.bench import mujoco_chain
 
     sc = load_scene("paper_free_fall", {**overrides, "drag_model": "none", "kernel": "dense"})
     model = sc.model()
@@ -56,7 +56,7 @@ def test_mjcf_chain_matches_dense_dynamics(overrides):
 
 @needs_mujoco
 def test_mjcf_coordinate_mapping_roundtrip():
-    from cable_sim.analysis import mujoco_chain
+    from cable_sim.analysis.bench import mujoco_chain
 
     rng = np.random.default_rng(3)
     q, qd = rng.normal(size=8), rng.normal(size=8)

@@ -133,12 +133,12 @@ def test_command_line_summary_plots_csv_resim(recorded, tmp_path, capsys):
 
 
 def test_frames_pick_the_requested_times(run):
-    from cable_sim.analysis.replay import _frame_indices
+    from cable_sim.analysis.replay.plots import frame_indices
 
-    idx = _frame_indices(run, 0.5)
+    idx = frame_indices(run, 0.5)
     assert np.allclose(run.t[idx], np.arange(0, 3.01, 0.5))
     with pytest.raises(ValueError, match="frame interval"):
-        _frame_indices(run, 0.0)
+        frame_indices(run, 0.0)
 
 
 def test_command_line_recover(tmp_path, recorded, capsys):

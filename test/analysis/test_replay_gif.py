@@ -15,8 +15,7 @@ import pytest
 from mcap.reader import make_reader
 from PIL import Image
 
-from cable_sim.analysis import replay
-from cable_sim.analysis.replay import gif_frame_indices, load_run, main
+from cable_sim.analysis.replay import cdr, gif_frame_indices, load_run, main
 from cable_sim.ros.messages import build_float_array, build_wrench
 from cable_sim.ros.recorder import RunRecorder, run_metadata
 from cable_sim.scene.scenes import load_scene
@@ -82,13 +81,13 @@ def test_long_run_loads_every_sample_with_the_fast_decoder(long_run):
 
 
 def test_fast_decoder_agrees_with_mcap_ros2(long_run):
-    generic, fast = replay._decoders(), replay._fast_decoders()
+    generic, fast = cdr.decoders(), cdr.fast_decoders()
     with open(long_run, "rb") as f:
         for i, (schema, _, message) in enumerate(make_reader(f).iter_messages()):
             if i % 97:
                 continue
             a, b = generic(schema, message.data), fast(schema, message.data)
-            assert type(b) is replay._Obj, schema.name  # the fast path was taken
+            assert type(b) is cdr.Obj, schema.name  # the fast path was taken
             if schema.name == "sensor_msgs/msg/JointState":
                 for field in ("position", "velocity", "effort"):
                     assert np.array_equal(getattr(a, field), getattr(b, field))

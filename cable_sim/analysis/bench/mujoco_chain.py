@@ -18,6 +18,8 @@ benchmark compares both engines with drag switched off):
 - no contacts, no geoms (nothing collides).
 
 ``mujoco`` is an optional dependency (``pip install mujoco``); this module imports it lazily.
+Part of the analysis layer (the benchmark's MuJoCo peer, :mod:`.mujoco_compare`): may import
+every layer; here core only.
 """
 
 from __future__ import annotations

@@ -1,0 +1,138 @@
+"""``cable_sim_bench``: the command line and :func:`main`, a short sequence of named steps.
+
+Each step is one study of its own module (work-precision, discretisation, cost, MuJoCo,
+targets, figures, report); a new study is a new module and one more step here.
+
+Part of the analysis layer: may import every layer; here the bench modules only.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import time
+
+from .cost import cost_rows, slopes
+from .discretisation import by_scene, discretisation_rows
+from .figures import plots
+from .mujoco_compare import mujoco_compare
+from .plan import Plan, PlanError, make_plan
+from .report import make_summary, write_csv
+from .settings import ERROR_FLOOR, FREE_FALL_ONLY_N, N_LIST, REF_STEP, SCENES, STEPS, TOLS, WP_DURATION, log
+from .targets import make_targets
+from .workprecision import run_workprecision
+
+DESCRIPTION = "Benchmark (issue #5): work-precision, convergence in n, cost in n, MuJoCo side by side."
+
+
+def parse_args(argv=None) -> argparse.Namespace:
+    """Command-line options."""
+    ap = argparse.ArgumentParser(prog="cable_sim_bench", description=DESCRIPTION)
+    mode = ap.add_mutually_exclusive_group()
+    mode.add_argument("--quick", action="store_true",
+                      help="tiny run: 2 scenes, n 4 8, 2 s, short ladders (smoke test, CI)")
+    mode.add_argument("--full", action="store_true",
+                      help="each scene's full duration (paper free fall 31 s; needed for the targets)")
+    ap.add_argument("--scenes", nargs="+", default=None, help=f"default {' '.join(SCENES)}")
+    ap.add_argument("--n", nargs="+", type=int, default=None,
+                    help=f"default {' '.join(map(str, N_LIST))} (n={FREE_FALL_ONLY_N[0]}: free fall only)")
+    ap.add_argument("--integrators", nargs="+", default=None,
+                    help="default: every integrator make_integrator offers here")
+    ap.add_argument("--steps", nargs="+", type=float, default=None,
+                    help=f"fixed-step ladder [s], default {' '.join(map(str, STEPS))}")
+    ap.add_argument("--tols", nargs="+", type=float, default=None,
+                    help=f"adaptive rtol=atol ladder, default {' '.join(map(str, TOLS))}")
+    ap.add_argument("--duration", type=float, default=None,
+                    help=f"simulated seconds of every run (default {WP_DURATION:g}; "
+                         "--full: each scene's own)")
+    ap.add_argument("--out", default="results/bench", help="output folder (default results/bench)")
+    ap.add_argument("--budget", type=float, default=35.0,
+                    help="wall seconds: a run projected (or found) to take longer is skipped, and so "
+                         "are the smaller steps/tighter tolerances after it and the same integrator at "
+                         "larger n of that scene; after a run longer than half of it the ladder stops "
+                         "(default 35: a 31 s run at RTF 1 still fits)")
+    ap.add_argument("--dop853-max-n", type=int, default=80,
+                    help="largest n with a DOP853 reference (above: rosenbrock2 at --ref-step)")
+    ap.add_argument("--ref-step", type=float, default=REF_STEP)
+    ap.add_argument("--error-floor", type=float, default=None,
+                    help=f"stop refining below this error [m] (default {ERROR_FLOOR:g}; --quick 0)")
+    ap.add_argument("--ref-rtol", type=float, default=None,
+                    help="DOP853 reference rtol = atol (default 1e-10; --quick 1e-12)")
+    ap.add_argument("--mujoco-n", nargs="+", type=int, default=None, help="default 20 80 160")
+    ap.add_argument("--mujoco-step", type=float, default=0.002)
+    ap.add_argument("--no-mujoco", action="store_true")
+    ap.add_argument("--refs-only", action="store_true",
+                    help="only compute the cached references (largest n first; run it alongside the "
+                         "main bench to fill the cache on the other core)")
+    ap.add_argument("--cache", default=None, help="reference cache folder (default <out>/cache)")
+    ap.add_argument("--resume", nargs="+", default=None, metavar="CSV",
+                    help="workprecision.csv files of earlier runs of the same configuration: their "
+                         "measured rows (ok, failed, over budget) are taken over instead of being run "
+                         "again (matched on scene, n, integrator, step/rtol, duration, kernel); the "
+                         "rows keep their measurement and say where they came from (column source)")
+    ap.add_argument("--max-wall", type=float, default=math.inf,
+                    help="wall seconds after which the remaining work-precision runs are skipped")
+    return ap.parse_args(argv)
+
+
+def fill_reference_cache(plan: Plan) -> None:
+    """``--refs-only``: every reference the main run needs, largest n first."""
+    for s_, n in sorted(plan.jobs(), key=lambda j: -j[1]):
+        try:
+            plan.reference(s_, n)
+        except RuntimeError as exc:
+            log(str(exc))
+    if not plan.args.no_mujoco:
+        for n in plan.mj_n:
+            plan.reference("paper_free_fall", n, drag="none")
+
+
+def mujoco_step(plan: Plan, disc: list[dict]) -> list[dict]:
+    """The MuJoCo comparison (mujoco.csv) and, beside it, the discretisation study of the free fall
+    with drag off (its references; added to ``disc`` and discretisation.csv rewritten)."""
+    a = plan.args
+    if a.no_mujoco:
+        return []
+    dur = plan.duration("paper_free_fall")
+    mj_rows = mujoco_compare(plan.mj_n, a.mujoco_step, dur, plan.cache, a.dop853_max_n, a.ref_step,
+                             a.budget, rtol=a.ref_rtol, kernel=plan.kernel)
+    write_csv(plan.out / "mujoco.csv", mj_rows)
+    # the paper drag's gamma is per link, so with it the physics itself changes with n
+    if "paper_free_fall" in plan.scenes and len(plan.mj_n) >= 2:
+        off = {n: plan.reference("paper_free_fall", n, drag="none")[0] for n in sorted(plan.mj_n)}
+        disc += discretisation_rows("paper_free_fall (drag off)", off, free=True)
+        write_csv(plan.out / "discretisation.csv", disc)
+    return mj_rows
+
+
+def main(argv=None) -> int:
+    """Entry point of ``cable_sim_bench``."""
+    args = parse_args(argv)
+    try:
+        plan = make_plan(args)
+    except PlanError as exc:
+        print(f"cable_sim_bench: {exc}", file=sys.stderr)
+        return 2
+    plan.announce()
+    if args.refs_only:
+        fill_reference_cache(plan)
+        return 0
+    wp, refs = run_workprecision(plan)
+    write_csv(plan.out / "workprecision.csv", wp)
+    disc = by_scene(plan.scenes, refs)
+    write_csv(plan.out / "discretisation.csv", disc)
+    costs = cost_rows(wp, plan.scenes, plan.integs)
+    fitted = slopes(costs, plan.scenes)
+    write_csv(plan.out / "cost_vs_n.csv", costs)
+    mj_rows = mujoco_step(plan, disc)
+    plots(plan.out, wp, disc, costs, plan.scenes, fitted)
+    targets = make_targets(wp, mj_rows, fitted)
+    write_csv(plan.out / "targets.csv", targets)
+    elapsed = time.perf_counter() - plan.t_start
+    summary = make_summary(argv if argv is not None else sys.argv[1:], plan.kernel, plan.why, plan.integs,
+                           args, wp, disc, costs, fitted, mj_rows, targets, elapsed)
+    (plan.out / "summary.md").write_text(summary)
+    print(summary)
+    log(f"done in {elapsed:.0f} s; results in {plan.out}")
+    return 0

@@ -1,0 +1,37 @@
+"""The benchmark's fixed settings (scenes, n, step and tolerance ladders, bounds) and its log.
+
+Part of the analysis layer; imports nothing from cable_sim (every bench module may import it).
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+
+SCENES = ("paper_free_fall", "paper_anchored_forced", "mooring_line")
+N_LIST = (10, 20, 40, 80, 160, 320, 640, 2000)
+#: n only run on the free-fall scene (unless ``--n`` asks for it explicitly).
+FREE_FALL_ONLY_N = (2000,)
+#: Step ladder of the fixed-step schemes [s]; every step divides the 0.5 s output interval.
+STEPS = (0.5, 0.25, 0.1, 0.05, 0.025, 0.0125, 0.01, 0.005, 0.0025, 0.002, 0.001, 0.0005)
+#: Tolerance ladder (rtol = atol) of the adaptive schemes.
+TOLS = (1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8)
+#: Names :func:`make_integrator` maps to ``scipy.integrate.solve_ivp`` (adaptive).
+SCIPY_ADAPTIVE = ("dop853", "radau", "rk45")
+#: Output sample interval [s].
+SAMPLE = 0.5
+#: Default simulated duration of a work-precision run without ``--full`` [s].
+WP_DURATION = 10.0
+#: Duration used by ``--full`` for a scene without its own (``duration: 0``) [s].
+OPEN_ENDED_DURATION = 30.0
+#: Error bound of the targets [m].
+ERROR_BOUND = 0.01
+#: Default reference step of the rosenbrock2 reference (large n) [s].
+REF_STEP = 1e-4
+#: Below this error a smaller step / tighter tolerance is not run: 1e-3 of the bound [m].
+ERROR_FLOOR = 1e-5
+
+
+def log(msg: str) -> None:
+    """Progress line on stderr."""
+    print(f"[bench {time.strftime('%H:%M:%S')}] {msg}", file=sys.stderr, flush=True)
