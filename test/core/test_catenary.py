@@ -1,4 +1,5 @@
-"""Anchored line without bending stiffness at rest against the inextensible catenary.
+"""Anchored line without bending stiffness at rest against the inextensible catenary: the one
+home of this reference (merged from test_catenary and test_verify_catenary, issue 10).
 
 Reference: a catenary solver written here (not ``statics.catenary_points``, which is the code
 under test's initial guess). In the frame whose origin is the lower (anchor) end, the curve in
@@ -13,8 +14,12 @@ their distance to the curve, and the fairlead tension |joint_forces(...)[0]| (qd
 force from forward_dynamics at rest) against T(L). The static solution must also be a dynamic
 equilibrium (qdd = 0 to 1e-8 — which also shows that the solver did not just hand back its
 catenary initial guess: that guess is off by O(1/n^2) and leaves max|qdd| >= 0.2) and be
-reached dynamically from a perturbed state (last test). Robustness of the solver from other
-initial guesses is tested in test_statics.py.
+reached dynamically from a perturbed state (settling test). The same comparison runs on lines
+built here (fairlead fixed at (0, 0), heave locked, anchors at (150, -150) and (200, -80) m,
+n = 20 and 80), where the anchor force is also compared as a vector (the catenary's end
+tangent), the compiled kernel must agree that the line is at rest, and n = 80 must be far tighter
+than 1 % (fairlead tension 1e-3, shape 1e-4 of L). Robustness of the solver from other initial
+guesses is tested in test_statics.py.
 """
 
 from __future__ import annotations
@@ -26,6 +31,9 @@ from scipy.integrate import solve_ivp
 from scipy.optimize import fsolve
 
 from cable_sim.core import dynamics
+from cable_sim.core import kernel as fast
+from cable_sim.core.model import CableModel
+from cable_sim.core.params import CableParams
 from cable_sim.core.statics import static_equilibrium
 from cable_sim.core.system import CableSystem
 from cable_sim.scene.scenes import load_scene
@@ -70,6 +78,11 @@ class Catenary:
         """|T| = w a hypot(1, u) [N]."""
         return self.w * self.a * float(np.hypot(1, self.ub + (self.L - s_from_top) / self.a))
 
+    def anchor_force(self) -> np.ndarray:
+        """Force [N] the anchor (bottom end) exerts on the line: the line pulls the anchor along
+        its end tangent towards the top, w a (sign, u_b); the anchor pulls back."""
+        return -self.w * self.a * np.array([self.sign, self.ub])
+
 
 def solve_scene(name: str, n: int):
     scene = load_scene(name, {**NO_BENDING, "n_links": n})
@@ -80,11 +93,12 @@ def solve_scene(name: str, n: int):
     return scene, model, ref, q, lam
 
 
-def compare(name: str, n: int) -> dict[str, float]:
-    """Errors of the static solution at n links against the reference catenary."""
-    scene, model, ref, q, lam = solve_scene(name, n)
+def compare(model: CableModel, ref: RefLine, q: np.ndarray, lam: np.ndarray) -> dict[str, float]:
+    """Errors of the static solution (q, lam) against the reference catenary through its ends."""
+    n = model.n
     qd = np.zeros(n + 1)
     qdd, anchor = dynamics.forward_dynamics(model, q, qd)
+    qdd_f, anchor_f = fast.forward_dynamics(model, q, qd)
     F = dynamics.joint_forces(model, q, qd, qdd, anchor)
     pts = ref.joints(q)
     L = float(ref.l.sum())
@@ -94,13 +108,17 @@ def compare(name: str, n: int) -> dict[str, float]:
     same_s = np.max(np.linalg.norm(pts - cat.point(s), axis=1)) / L
     dense = cat.point(np.linspace(0, L, 200001))
     to_curve = max(np.min(np.linalg.norm(dense - p, axis=1)) for p in pts) / L
+    lam_ref = cat.anchor_force()
     return {
         "qdd": float(np.max(np.abs(qdd))),
+        "qdd_fast": float(np.max(np.abs(qdd_f))),
+        "anchor": anchor, "anchor_fast": anchor_f, "wL": w * L, "end": pts[-1],
         "lam_diff": float(np.linalg.norm(anchor - lam) / np.linalg.norm(lam)),
         "same_s": float(same_s),
         "to_curve": float(to_curve),
         "T_top": float(np.linalg.norm(F[0]) / cat.tension(0.0) - 1.0),
         "T_anchor": float(np.linalg.norm(anchor) / cat.tension(L) - 1.0),
+        "anchor_vec": float(np.linalg.norm(anchor - lam_ref) / np.linalg.norm(lam_ref)),
         "T_top_abs": float(np.linalg.norm(F[0])),
     }
 
@@ -109,20 +127,48 @@ def compare(name: str, n: int) -> dict[str, float]:
 def test_static_shape_and_fairlead_tension_match_catenary(name: str) -> None:
     """n = 80: shape within 1 % of L, fairlead (and anchor) tension within 1 %; errors shrink
     from n = 20 to 40 to 80; the static solution is a dynamic equilibrium (qdd ~ 0)."""
-    res = {n: compare(name, n) for n in (20, 40, 80)}
+    res = {n: compare(*solve_scene(name, n)[1:]) for n in (20, 40, 80)}
     for n, r in res.items():
         print(f"{name} n = {n}: shape (same arc length) {r['same_s']:.3g} L, to curve "
               f"{r['to_curve']:.3g} L, fairlead tension {r['T_top']:+.3g} (|F0| = "
-              f"{r['T_top_abs']:.6g} N), anchor tension {r['T_anchor']:+.3g}, max|qdd| {r['qdd']:.2g}")
+              f"{r['T_top_abs']:.6g} N), anchor tension {r['T_anchor']:+.3g}, anchor force vector "
+              f"{r['anchor_vec']:.3g}, max|qdd| {r['qdd']:.2g}")
     r = res[80]
     assert r["same_s"] < 0.01 and r["to_curve"] < 0.01
-    assert abs(r["T_top"]) < 0.01 and abs(r["T_anchor"]) < 0.01
+    assert abs(r["T_top"]) < 0.01 and abs(r["T_anchor"]) < 0.01 and r["anchor_vec"] < 0.01
     for key in ("same_s", "T_top", "T_anchor"):
         errs = [abs(res[n][key]) for n in (20, 40, 80)]
         assert errs[0] > errs[1] > errs[2], (key, errs)
     for r in res.values():
-        assert r["qdd"] < 1e-8  # at rest the accelerations vanish
+        assert r["qdd"] < 1e-8 and r["qdd_fast"] < 1e-8  # at rest the accelerations vanish
         assert r["lam_diff"] < 1e-8  # the static anchor force is the dynamic one
+
+
+@pytest.mark.parametrize("anchor", [(150.0, -150.0), (200.0, -80.0)])
+@pytest.mark.parametrize("n", [20, 80])
+def test_line_between_fixed_points_matches_catenary(n: int, anchor: tuple[float, float]) -> None:
+    """Fairlead fixed at (0, 0) (heave locked), anchor at (X, Z), 240 m of d = 10 mm steel: at
+    rest for both kernels (max|qdd| < 1e-9, anchor force = the statics' lambda to 1e-8), the
+    end on the anchor (1e-9 m), fairlead tension, anchor force vector and shape within 1 % of the
+    catenary, and at n = 80 tension within 1e-3 and shape within 1e-4 of L."""
+    X, Z = anchor
+    p = CableParams(n_links=n, total_length=240.0, diameter=0.01, line_density=7850.0,
+                    water_density=1025.0, gravity=9.81, joint_springs=False, pin_stiffness=0.0,
+                    load_mass=0.0, end_condition="anchored", anchor_x=X, anchor_z=Z,
+                    heave_locked=True, drag_model="none")
+    model = CableModel.from_params(p)
+    q, lam = static_equilibrium(model, z_top=0.0)
+    r = compare(model, RefLine(p), q, lam)
+    print(f"n={n} anchor=({X:g},{Z:g}): fairlead tension {r['T_top']:+.2e} (|F0| = "
+          f"{r['T_top_abs']:.3f} N); anchor force vector {r['anchor_vec']:.2e}; shape to curve "
+          f"{r['to_curve']:.2e} L, same arc length {r['same_s']:.2e} L")
+    assert r["qdd"] < 1e-9 and r["qdd_fast"] < 1e-9
+    for a in (r["anchor"], r["anchor_fast"]):
+        assert np.allclose(a, lam, rtol=1e-8, atol=1e-8 * r["wL"])
+    assert np.allclose(r["end"], [X, Z], atol=1e-9)
+    assert abs(r["T_top"]) < 0.01 and r["anchor_vec"] < 0.01 and r["to_curve"] < 0.01
+    if n == 80:  # at full resolution far tighter than 1 %
+        assert abs(r["T_top"]) < 1e-3 and r["to_curve"] < 1e-4
 
 
 def test_dynamic_settling_reaches_static_solution() -> None:
