@@ -1,4 +1,7 @@
-"""RK4 converges at order 4 on a free-fall line, measured far above the round-off floor.
+"""RK4 converges at order 4 on a free-fall line, measured far above the round-off floor: the one
+home of the order reference (merged with the order test of test_verify_scenes, issue 10), for
+both RK4 implementations — the Python ``RK4`` on the dense kernel and the compiled stepper that
+``Simulation`` runs on the fast kernel.
 
 Scene: ``paper_free_fall`` (paper masses, joint springs and dampers, 60 kg load, released from
 horizontal, dense kernel) with n = 20 links and the drag switched off, over 8 s. Why this scene:
@@ -20,24 +23,29 @@ Reference: scipy's DOP853 (order 8) at rtol = atol = 1e-12 on the same right-han
 error is bounded by its distance to DOP853 at 1e-10 (about 1e-9 m, measured), which must be below
 1 % of every RK4 error. Error: the largest distance [m] of any joint from its reference position
 over samples every 0.1 s, with joint positions from the independent kinematics of
-``conftest.RefLine``.
+``conftest.RefLine``. The reference runs once per module, on the dense kernel (so the compiled
+code under test plays no part in it).
 """
 
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from conftest import RefLine
 
 from cable_sim.integrate import RK4, ScipyIntegrator
 from cable_sim.scene.scenes import load_scene
+from cable_sim.scene.simulation import Simulation
 
 HORIZON, DT_OUT = 8.0, 0.1
 STEPS = (0.025, 0.0125, 0.00625)
 SCENE = {"kernel": "dense", "n_links": 20, "drag_model": "none"}
 
 
-def test_rk4_fourth_order_on_free_fall() -> None:
-    """Observed order log2(e(h)/e(h/2)) within 3.7-4.3 for each halving (and the fitted slope)."""
+@pytest.fixture(scope="module")
+def reference() -> dict:
+    """DOP853 (tol 1e-12) joint positions at t = 0, 0.1, ..., 8 s, and its error bound (distance
+    to DOP853 at tol 1e-10), on the dense kernel; plus the scene, model, reference line and y0."""
     scene = load_scene("paper_free_fall", SCENE)
     model = scene.model()
     ref = RefLine(scene.params)
@@ -47,24 +55,21 @@ def test_rk4_fourth_order_on_free_fall() -> None:
     def joints(ys: np.ndarray) -> np.ndarray:
         return np.array([ref.joints(y[:n1]) for y in ys])
 
-    def reference(tol: float) -> np.ndarray:
+    def run(tol: float) -> np.ndarray:
         integ = ScipyIntegrator(scene.system(model=model), "DOP853", rtol=tol, atol=tol)
         return joints(integ.integrate(y0, 0.0, HORIZON, DT_OUT).y)
 
-    p_ref = reference(1e-12)
-    ref_err = float(np.max(np.linalg.norm(p_ref - reference(1e-10), axis=2)))
-    errors = []
-    for h in STEPS:
-        integ = RK4(scene.system(model=model), step=h)
-        tr = integ.integrate(y0, 0.0, HORIZON, DT_OUT)
-        assert integ.nsteps == round(HORIZON / h), (
-            f"RK4 took {integ.nsteps} steps for h = {h} s; expected {round(HORIZON / h)}")
-        assert np.all(np.isfinite(tr.y))
-        errors.append(float(np.max(np.linalg.norm(joints(tr.y) - p_ref, axis=2))))
-    errors = np.array(errors)
+    p_ref = run(1e-12)
+    ref_err = float(np.max(np.linalg.norm(p_ref - run(1e-10), axis=2)))
+    return {"scene": scene, "model": model, "ref": ref, "y0": y0, "joints": joints, "p": p_ref,
+            "err": ref_err}
+
+
+def check_order(errors: np.ndarray, ref_err: float, what: str) -> None:
+    """Errors far above round-off and the reference's error; observed orders within 3.7..4.3."""
     orders = np.log2(errors[:-1] / errors[1:])
     slope = np.polyfit(np.log(STEPS), np.log(errors), 1)[0]
-    print("RK4 max joint-position errors [m]: " + ", ".join(
+    print(f"{what}: max joint-position errors [m]: " + ", ".join(
         f"h = {h * 1e3:g} ms: {e:.3g}" for h, e in zip(STEPS, errors, strict=True)))
     print(f"observed orders {np.round(orders, 3).tolist()}, fitted slope {slope:.3f}, "
           f"reference error bound {ref_err:.2g} m")
@@ -75,3 +80,38 @@ def test_rk4_fourth_order_on_free_fall() -> None:
         f"{errors.min():.3g} m")
     assert np.all((orders > 3.7) & (orders < 4.3)), f"observed orders {orders} outside 3.7..4.3"
     assert 3.7 < slope < 4.3, f"fitted slope {slope:.3f} outside 3.7..4.3"
+
+
+def test_rk4_fourth_order_on_free_fall(reference: dict) -> None:
+    """Python RK4 on the dense kernel: observed order log2(e(h)/e(h/2)) within 3.7-4.3 for each
+    halving (and the fitted slope)."""
+    scene, model, y0 = reference["scene"], reference["model"], reference["y0"]
+    errors = []
+    for h in STEPS:
+        integ = RK4(scene.system(model=model), step=h)
+        tr = integ.integrate(y0, 0.0, HORIZON, DT_OUT)
+        assert integ.nsteps == round(HORIZON / h), (
+            f"RK4 took {integ.nsteps} steps for h = {h} s; expected {round(HORIZON / h)}")
+        assert np.all(np.isfinite(tr.y))
+        errors.append(float(np.max(np.linalg.norm(reference["joints"](tr.y) - reference["p"], axis=2))))
+    check_order(np.array(errors), reference["err"], "RK4 (dense)")
+
+
+def test_compiled_rk4_fourth_order_through_simulation(reference: dict) -> None:
+    """The compiled RK4 stepper on the fast kernel, driven by ``Simulation`` at the step asked
+    for and sampled every 0.1 s with ``run_until``: same orders, same reference."""
+    scene = load_scene("paper_free_fall", {**SCENE, "kernel": "fast"})
+    ks = np.arange(1, int(round(HORIZON / DT_OUT)) + 1)
+    errors = []
+    for h in STEPS:
+        sim = Simulation(scene, step=h)
+        assert sim.integrator.name == "rk4" and sim.integrator.compiled
+        assert sim.h == h, f"Simulation runs at h = {sim.h} s; asked for {h} s"
+        e = 0.0
+        for k in ks:
+            sim.run_until(k * DT_OUT)
+            e = max(e, float(np.max(np.linalg.norm(reference["joints"](sim.y[None])[0]
+                                                   - reference["p"][k], axis=1))))
+        assert abs(sim.t - HORIZON) < 1e-9
+        errors.append(e)
+    check_order(np.array(errors), reference["err"], "compiled RK4 (fast, Simulation)")
