@@ -61,6 +61,21 @@ class CableModel:
         Anchor position (x, z) [m].
     baumgarte_alpha, baumgarte_beta : float
         Constraint stabilisation: Phi'' + 2 alpha Phi' + beta^2 Phi = 0.
+    seabed : bool
+        Seabed contact on (MODEL.md, "Round 2 terms").
+    seabed_z : float
+        z of the seabed [m] (-inf when off).
+    seabed_k, seabed_c : ndarray (n,)
+        Contact stiffness [N/m^2] and damping [N s/m^2] per unit length on each link (zero when off).
+    friction_axial, friction_transverse : ndarray (n,)
+        Coulomb coefficients per link (zero when off or without a seabed).
+    friction_speed : float
+        Regularisation slip speed v_c [m/s].
+    added_mass : bool
+        Morison added mass on.
+    added_mass_normal, added_mass_axial : ndarray (n,)
+        m_an = C_an rho_w pi d_i^2/4 and m_at = C_at rho_w pi d_i^2/4 per unit length [kg/m]
+        (zero when off).
     """
 
     params: CableParams
@@ -92,6 +107,16 @@ class CableModel:
     anchor: np.ndarray
     baumgarte_alpha: float
     baumgarte_beta: float
+    seabed: bool = False
+    seabed_z: float = -np.inf
+    seabed_k: np.ndarray | None = None
+    seabed_c: np.ndarray | None = None
+    friction_axial: np.ndarray | None = None
+    friction_transverse: np.ndarray | None = None
+    friction_speed: float = 1.0
+    added_mass: bool = False
+    added_mass_normal: np.ndarray | None = None
+    added_mass_axial: np.ndarray | None = None
 
     @property
     def ndof(self) -> int:
@@ -149,6 +174,9 @@ class CableModel:
             c[:] = 0.0
 
         omega_b = p.constraint_stiffness
+        zb = p.seabed_z()
+        on = np.full(n, 1.0 if zb is not None else 0.0)
+        am = np.full(n, 1.0 if p.added_mass else 0.0)
         return cls(
             params=p,
             n=n,
@@ -179,6 +207,16 @@ class CableModel:
             anchor=_frozen(np.array([p.anchor_x, p.anchor_z])),
             baumgarte_alpha=omega_b,
             baumgarte_beta=omega_b,
+            seabed=zb is not None,
+            seabed_z=-np.inf if zb is None else float(zb),
+            seabed_k=_frozen(on * p.seabed_stiffness),
+            seabed_c=_frozen(on * p.seabed_damping),
+            friction_axial=_frozen(on * p.seabed_friction_axial),
+            friction_transverse=_frozen(on * p.seabed_friction_transverse),
+            friction_speed=p.seabed_friction_speed,
+            added_mass=bool(p.added_mass),
+            added_mass_normal=_frozen(am * p.added_mass_cn * rho_w * area),
+            added_mass_axial=_frozen(am * p.added_mass_ct * rho_w * area),
         )
 
     def terms(self) -> list[str]:
@@ -201,4 +239,10 @@ class CableModel:
             out.append("current")
         if self.heave_locked:
             out.append("heave_locked")
+        if self.seabed:
+            out.append("seabed")
+            if np.any(self.friction_axial) or np.any(self.friction_transverse):
+                out.append("seabed_friction")
+        if self.added_mass:
+            out.append("added_mass")
         return out

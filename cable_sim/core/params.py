@@ -138,6 +138,26 @@ class CableParams:
         Physics-term switches; a switched-off term is not computed.
     constraint_stiffness : float
         Baumgarte natural frequency omega_b [1/s] for the anchor constraint (critically damped).
+    seabed : bool
+        Flat seabed contact on (MODEL.md, "Round 2 terms"). Off by default.
+    seabed_depth : float or None
+        z of the floor [m] (< 0: below the fairlead at the still-water level). None: the anchor's
+        depth (anchored ends; required for a free end with a seabed).
+    seabed_stiffness : float
+        Contact stiffness k_b per unit length per metre of penetration [N/m^2] (> 0); a resting
+        line sinks w / k_b (w its wet weight per length). MoorDyn's per-area kBot times d.
+    seabed_damping : float
+        Contact damping c_b per unit length [N s/m^2]; acts only in contact, never pulls down.
+    seabed_friction_axial, seabed_friction_transverse : float
+        Coulomb coefficients along the link axis and across it (0: no friction).
+    seabed_friction_speed : float
+        Regularisation slip speed v_c [m/s] (> 0): below it friction grows linearly with the
+        slip speed (MoorDyn's "cv" form), above it is mu times the contact force.
+    added_mass : bool
+        Morison added mass on (switchable inertia term). Off by default.
+    added_mass_cn, added_mass_ct : float
+        Normal and tangential added-mass coefficients: per length m_an = C_an rho_w pi d^2/4,
+        m_at = C_at rho_w pi d^2/4.
     """
 
     n_links: int = 60
@@ -177,6 +197,16 @@ class CableParams:
     platform_damper: bool = True
     wave_coupling: bool = True
     constraint_stiffness: float = 20.0
+    seabed: bool = False
+    seabed_depth: float | None = None
+    seabed_stiffness: float = 1.0e5
+    seabed_damping: float = 2.0e3
+    seabed_friction_axial: float = 0.0
+    seabed_friction_transverse: float = 0.0
+    seabed_friction_speed: float = 0.01
+    added_mass: bool = False
+    added_mass_cn: float = 1.0
+    added_mass_ct: float = 0.0
     _validated: bool = field(default=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
@@ -196,10 +226,12 @@ class CableParams:
         for name in (
             "joint_stiffness", "joint_damping", "bending_stiffness", "bending_damping",
             "pin_stiffness", "pin_damping", "heave_stiffness", "heave_damping", "load_mass",
-            "load_volume", "gravity", "paper_drag_gamma", "drag_cn", "drag_ct",
+            "load_volume", "gravity", "paper_drag_gamma", "drag_cn", "drag_ct", "seabed_damping",
+            "seabed_friction_axial", "seabed_friction_transverse", "added_mass_cn", "added_mass_ct",
         ):
             set_(name, _non_negative(name, getattr(self, name)))
-        for name in ("platform_mass", "water_density", "paper_anchor_mass", "constraint_stiffness"):
+        for name in ("platform_mass", "water_density", "paper_anchor_mass", "constraint_stiffness",
+                     "seabed_stiffness", "seabed_friction_speed"):
             set_(name, _positive(name, getattr(self, name)))
         for name in ("current_speed", "anchor_x", "anchor_z"):
             set_(name, _finite(name, getattr(self, name)))
@@ -207,9 +239,10 @@ class CableParams:
         set_("end_condition", _choice("end_condition", self.end_condition, END_CONDITIONS))
         for name in (
             "heave_locked", "buoyancy", "joint_springs", "joint_dampers", "platform_spring",
-            "platform_damper", "wave_coupling",
+            "platform_damper", "wave_coupling", "seabed", "added_mass",
         ):
             set_(name, _flag(name, getattr(self, name)))
+        self._check_seabed()
         if self.end_condition == "anchored":
             free_dofs = self.n_links + (0 if self.heave_locked else 1) - 2
             if free_dofs < 1:
@@ -221,6 +254,33 @@ class CableParams:
         if self.link_lengths is not None:
             object.__setattr__(self, "total_length", float(sum(self.link_lengths)))
         set_("_validated", True)
+
+    def _check_seabed(self) -> None:
+        """Seabed geometry: below the fairlead (z = 0), and not above an anchor."""
+        if self.seabed_depth is not None:
+            zb = _finite("seabed_depth", self.seabed_depth)
+            object.__setattr__(self, "seabed_depth", zb)
+        if not self.seabed:
+            return
+        anchored = self.end_condition in ("anchored", "paper_anchor")
+        if self.seabed_depth is None and not anchored:
+            raise ParameterError("seabed_depth", None,
+                                 "a finite number < 0 [m] (z of the floor): a free-end line with a "
+                                 "seabed needs its depth")
+        zb = self.anchor_z if self.seabed_depth is None else self.seabed_depth
+        if zb >= 0.0:
+            raise ParameterError("seabed_depth", zb,
+                                 "a finite number < 0 [m]: the seabed must lie below the fairlead "
+                                 "(the platform floats at z = 0)")
+        if anchored and self.anchor_z > zb:
+            raise ParameterError("anchor_z", self.anchor_z,
+                                 f"<= seabed_depth = {zb:g} m (an anchor cannot float above the seabed)")
+
+    def seabed_z(self) -> float | None:
+        """z of the seabed [m] when the seabed is on (the anchor's depth unless set), else None."""
+        if not self.seabed:
+            return None
+        return self.anchor_z if self.seabed_depth is None else float(self.seabed_depth)
 
     def lengths(self) -> np.ndarray:
         """Link lengths l_i [m] as a float array of shape (n,)."""

@@ -1,0 +1,200 @@
+"""Seabed contact of the n-link cable: per-link contact integrals and output helpers (pure numpy).
+
+A point of link i at distance s from its upper joint is r(s) = p_{i-1} + s e_i (MODEL.md,
+"Round 2 terms"). With the flat seabed at z = z_b its penetration is delta(s) = z_b - z(s), linear
+in s on a straight link. Per unit length the bed pushes up with
+
+    f_z(s) = max(0, k_b delta(s) - c_b zdot(s))      where delta(s) > 0, else 0
+
+(spring-damper, never pulling down) and, optionally, resists horizontal slip with a smoothed
+Coulomb law (MoorDyn's "cv" form): the slip velocity's horizontal part is split into the part
+along the link axis (axial) and the rest (transverse); each gets
+
+    f = -mu f_z sat(v / v_c),   sat(x) = clip(x, -1, 1)
+
+(linear below the regularisation speed v_c, Coulomb above). Every integrand is polynomial in s
+between the breakpoints (delta = 0, f_z = 0, slip = +-v_c); :func:`link_contact` integrates each
+piece with 2-point Gauss-Legendre, exact up to cubics, so the link's resultant force and its
+first moment are exact (no quadrature error).
+
+Also the outputs a mooring engineer looks at: touchdown point, laid length, total seabed
+reaction (:func:`touchdown`). This module imports only numpy and :mod:`cable_sim.core.model`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from cable_sim.core.model import CableModel
+
+#: 2-point Gauss-Legendre abscissae on [0, 1] and weight (each 1/2).
+_G1 = 0.5 - 0.5 / math.sqrt(3.0)
+_G2 = 0.5 + 0.5 / math.sqrt(3.0)
+
+
+def _sat(x: float) -> float:
+    return -1.0 if x < -1.0 else (1.0 if x > 1.0 else x)
+
+
+def link_contact(
+    px: float, pz: float, vpx: float, vpz: float, th: float, w: float, length: float,
+    zb: float, k: float, c: float, mu_a: float, mu_t: float, vc: float,
+) -> tuple[float, float, float, float, float, float]:
+    """Seabed force on one straight link, integrated exactly over its length.
+
+    Parameters
+    ----------
+    px, pz, vpx, vpz : float
+        Position [m] and velocity [m/s] of the link's upper joint.
+    th, w : float
+        Link angle theta_i [rad] (from the downward vertical) and its rate [rad/s].
+    length : float
+        Link length l_i [m].
+    zb : float
+        Seabed height [m].
+    k, c : float
+        Contact stiffness [N/m^2] and damping [N s/m^2] per unit length.
+    mu_a, mu_t, vc : float
+        Axial and transverse friction coefficients, regularisation speed [m/s] (vc > 0).
+
+    Returns
+    -------
+    fx, fz : float
+        Resultant force on the link [N].
+    mx, mz : float
+        First moments int s f ds [N m] (s from the upper joint).
+    potential : float
+        Elastic energy int 1/2 k delta^2 ds over the penetrating part [J].
+    spring_power : float
+        int k delta zdot ds over the penetrating part [W] (= -d(potential)/dt).
+    """
+    ct, st = math.cos(th), math.sin(th)
+    d0, d1 = zb - pz, ct  # delta(s) = d0 + d1 s
+    if d0 <= 0.0 and d0 + d1 * length <= 0.0:
+        return 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+    z0, z1 = vpz, w * st  # zdot(s)
+    x0, x1 = vpx, w * ct  # xdot(s)
+    ua = vpx * st - vpz * ct  # slip along the axis, uniform along the link
+    vax = ua * st  # its horizontal part
+    t0, t1 = vpx - vax, x1  # transverse horizontal slip v_tx(s)
+    f0, f1 = k * d0 - c * z0, k * d1 - c * z1  # k delta - c zdot
+    friction = mu_a > 0.0 or mu_t > 0.0
+    cuts = [0.0, length]
+    for a0, a1 in ((d0, d1), (f0, f1)):
+        if a1 != 0.0:
+            cuts.append(-a0 / a1)
+    if friction and mu_t > 0.0 and t1 != 0.0:
+        cuts.append((vc - t0) / t1)
+        cuts.append((-vc - t0) / t1)
+    cuts = sorted(s for s in cuts if 0.0 <= s <= length)
+    fa = _sat(vax / vc) if friction else 0.0
+    fx = fz = mx = mz = pot = sp = 0.0
+    for a, b in zip(cuts[:-1], cuts[1:], strict=True):
+        h = b - a
+        if h <= 0.0:
+            continue
+        sm = 0.5 * (a + b)
+        if d0 + d1 * sm <= 0.0:
+            continue
+        for g in (_G1, _G2):
+            s = a + g * h
+            wq = 0.5 * h
+            delta = d0 + d1 * s
+            zd = z0 + z1 * s
+            pot += wq * 0.5 * k * delta * delta
+            sp += wq * k * delta * zd
+            if f0 + f1 * sm <= 0.0:
+                continue
+            fn = f0 + f1 * s
+            fxs = 0.0
+            if friction:
+                fxs = -fn * (mu_a * fa + mu_t * _sat((t0 + t1 * s) / vc))
+            fz += wq * fn
+            mz += wq * s * fn
+            fx += wq * fxs
+            mx += wq * s * fxs
+    del x0
+    return fx, fz, mx, mz, pot, sp
+
+
+@dataclass(frozen=True)
+class SeabedOutputs:
+    """What lies on the seabed (all zero / nan when the scene has no seabed).
+
+    Attributes
+    ----------
+    touchdown_arc : float
+        Arc length [m] from the line's end (the anchor) to the touchdown point, the uppermost
+        point of the line in contact with the bed (0 when nothing touches).
+    touchdown_x : float
+        x of the touchdown point [m] (nan when nothing touches).
+    laid_length : float
+        Total length of line below the bed level [m].
+    reaction : float
+        Total vertical seabed force on the line [N] (spring and damper).
+    """
+
+    touchdown_arc: float
+    touchdown_x: float
+    laid_length: float
+    reaction: float
+
+
+def _joints(model: CableModel, q: np.ndarray, qd: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    th, w, l = q[1:], qd[1:], model.length
+    p = np.zeros((model.n + 1, 2))
+    v = np.zeros((model.n + 1, 2))
+    p[1:, 0] = np.cumsum(l * np.sin(th))
+    p[1:, 1] = -np.cumsum(l * np.cos(th))
+    p[:, 1] += q[0]
+    v[1:, 0] = np.cumsum(l * np.cos(th) * w)
+    v[1:, 1] = np.cumsum(l * np.sin(th) * w)
+    v[:, 1] += qd[0]
+    return p, v
+
+
+def seabed_outputs(model: CableModel, q: np.ndarray, qd: np.ndarray | None = None) -> SeabedOutputs:
+    """Touchdown point, laid length and total seabed reaction of a state (O(n)).
+
+    Parameters
+    ----------
+    model : CableModel
+    q : ndarray (n+1,)
+        Generalised positions.
+    qd : ndarray (n+1,), optional
+        Generalised velocities (default: at rest; they only enter the reaction's damping part).
+    """
+    if not model.seabed:
+        return SeabedOutputs(0.0, float("nan"), 0.0, 0.0)
+    qd = np.zeros_like(q) if qd is None else qd
+    p, v = _joints(model, q, qd)
+    zb, l = model.seabed_z, model.length
+    s_top = np.concatenate([[0.0], np.cumsum(l)])  # arc length of joint i from the fairlead
+    laid = 0.0
+    first = None  # smallest arc length from the fairlead that penetrates
+    reaction = 0.0
+    for i in range(model.n):
+        d_a, d_b = zb - p[i, 1], zb - p[i + 1, 1]  # penetration at both ends of link i
+        if d_a <= 0.0 and d_b <= 0.0:
+            continue
+        if d_a > 0.0 and d_b > 0.0:
+            frac_in, start = 1.0, 0.0
+        elif d_a > 0.0:
+            frac_in, start = d_a / (d_a - d_b), 0.0
+        else:
+            start = d_a / (d_a - d_b)
+            frac_in = 1.0 - start
+        laid += frac_in * l[i]
+        if first is None:
+            first = (i, start)
+        reaction += link_contact(p[i, 0], p[i, 1], v[i, 0], v[i, 1], q[i + 1], qd[i + 1], l[i], zb,
+                                 model.seabed_k[i], model.seabed_c[i], 0.0, 0.0, 1.0)[1]
+    if first is None:
+        return SeabedOutputs(0.0, float("nan"), 0.0, 0.0)
+    i, frac = first
+    s_td = s_top[i] + frac * l[i]
+    x_td = p[i, 0] + frac * (p[i + 1, 0] - p[i, 0])
+    return SeabedOutputs(float(s_top[-1] - s_td), float(x_td), float(laid), float(reaction))
