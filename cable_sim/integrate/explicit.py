@@ -1,14 +1,15 @@
 """Explicit fixed-step schemes: classical RK4 (order 4) and semi-implicit Euler (order 1).
 
-With the ``fast`` kernel each runs whole compiled, checked steps (:mod:`cable_sim.core.kernel`).
+With the ``fast`` kernel each runs whole compiled, checked steps
+(:mod:`cable_sim.integrate.compiled_steppers`).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from cable_sim.core import kernel as fast
 from cable_sim.integrate.base import Integrator
+from cable_sim.integrate.compiled_steppers import rk4_run, symplectic_euler_run
 
 
 class RK4(Integrator):
@@ -30,7 +31,7 @@ class RK4(Integrator):
     _fast_fevals = 4
 
     def _fast_kernel(self, arr, par, h, u, eta, y, chk, info) -> int:
-        return fast.rk4_run(arr, par, h, u, eta, y, chk, info)
+        return rk4_run(arr, par, h, u, eta, y, chk, info)
 
 
 class SemiImplicitEuler(Integrator):
@@ -59,4 +60,4 @@ class SemiImplicitEuler(Integrator):
     _fast_fevals = 1
 
     def _fast_kernel(self, arr, par, h, u, eta, y, chk, info) -> int:
-        return fast.symplectic_euler_run(arr, par, h, u[:, 0], eta[:, 0], y, chk, info)
+        return symplectic_euler_run(arr, par, h, u[:, 0], eta[:, 0], y, chk, info)

@@ -1,0 +1,195 @@
+"""The anchored end in O(n): constraint right-hand side, projection, drift and the Schur matrix.
+
+* :func:`constraint_rhs`: ``gamma - J qdd`` of the anchor's Schur complement (Baumgarte
+  stabilised, as in the dense solver);
+* :func:`project_packed`, :func:`end_drift_packed`: the projection onto ``Phi(q) = 0``,
+  ``Phi_q qd = 0`` and the end's distance from the anchor;
+* :func:`schur_packed`, :func:`condition_2x2`, :func:`schur_condition`: ``J M^-1 J^T`` (the same
+  inward/outward sweeps as the forward dynamics, with the two unit end forces) and its
+  condition number, which grows without bound as the line is pulled straight.
+
+Core layer, compiled kernel: imports numba, numpy and :mod:`cable_sim.core.kernel.sweeps`,
+:mod:`cable_sim.core.kernel.packing`, :mod:`cable_sim.core.model`.
+"""
+
+from __future__ import annotations
+
+import numba as nb
+import numpy as np
+
+from cable_sim.core.kernel.packing import pack_arrays
+from cable_sim.core.kernel.sweeps import inward_sweep, link_trig, outward_sweep, solve_2x2
+from cable_sim.core.model import CableModel
+
+
+@nb.njit(cache=True)
+def constraint_rhs(
+    l: np.ndarray, cth: np.ndarray, sth: np.ndarray, ax: float, az: float, balpha: float,
+    bbeta: float, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray,
+) -> tuple[float, float]:
+    """``gamma - J qdd`` with ``gamma = -(dJ/dt) qd - 2 alpha J qd - beta^2 (p_n - anchor)``."""
+    n = l.shape[0]
+    jx = 0.0
+    jz = qdd[0]
+    px = 0.0
+    pz = q[0]
+    vx = 0.0
+    vz = qd[0]
+    biasx = 0.0
+    biasz = 0.0
+    for i in range(n):
+        li = l[i]
+        c = cth[i]
+        s = sth[i]
+        w = qd[i + 1]
+        jx += li * c * qdd[i + 1]
+        jz += li * s * qdd[i + 1]
+        px += li * s
+        pz -= li * c
+        vx += li * c * w
+        vz += li * s * w
+        biasx -= li * s * w * w
+        biasz += li * c * w * w
+    gx = -biasx - 2.0 * balpha * vx - bbeta * bbeta * (px - ax)
+    gz = -biasz - 2.0 * balpha * vz - bbeta * bbeta * (pz - az)
+    return gx - jx, gz - jz
+
+
+@nb.njit(cache=True, inline="always")
+def end_position(l: np.ndarray, y: np.ndarray) -> tuple[float, float]:
+    """Position of the line's end ``p_n`` from ``y = [q, ...]``."""
+    px = 0.0
+    pz = y[0]
+    for i in range(l.shape[0]):
+        px += l[i] * np.sin(y[i + 1])
+        pz -= l[i] * np.cos(y[i + 1])
+    return px, pz
+
+
+@nb.njit(cache=True, inline="always")
+def end_gram(l: np.ndarray, y: np.ndarray, free: bool, velocity: bool) -> tuple:
+    """``J J^T`` (a11, a12, a22) over the free coordinates and, with ``velocity``, ``J qd``."""
+    n1 = l.shape[0] + 1
+    a11 = 0.0
+    a12 = 0.0
+    a22 = 1.0 if free else 0.0
+    vx = 0.0
+    vz = y[n1] if (free and velocity) else 0.0
+    for i in range(l.shape[0]):
+        jx = l[i] * np.cos(y[i + 1])
+        jz = l[i] * np.sin(y[i + 1])
+        a11 += jx * jx
+        a12 += jx * jz
+        a22 += jz * jz
+        if velocity:
+            vx += jx * y[n1 + i + 1]
+            vz += jz * y[n1 + i + 1]
+    return a11, a12, a22, vx, vz
+
+
+@nb.njit(cache=True, inline="always")
+def subtract_jt(l: np.ndarray, y: np.ndarray, off: int, free: bool, mx: float, mz: float) -> None:
+    """``y[off:off + n + 1] -= J^T (mx, mz)`` over the free coordinates (J at ``y[:n + 1]``)."""
+    if free:
+        y[off] -= mz
+    for i in range(l.shape[0]):
+        y[off + i + 1] -= l[i] * np.cos(y[i + 1]) * mx + l[i] * np.sin(y[i + 1]) * mz
+
+
+@nb.njit(cache=True)
+def project_packed(arr: np.ndarray, par: np.ndarray, y: np.ndarray, tol: float) -> None:
+    """In-place projection onto Phi(q) = 0 and Phi_q qd = 0.
+
+    The algorithm of :func:`cable_sim.core.system.project_constraint` (at most 5 Gauss-Newton steps
+    ``dq = -J^T (J J^T)^-1 Phi`` on the free coordinates, then the least-squares velocity
+    projection), O(n).
+    """
+    l = arr[0]
+    free = par[7] == 0.0
+    for _ in range(5):
+        px, pz = end_position(l, y)
+        fx = px - par[11]
+        fz = pz - par[12]
+        if np.hypot(fx, fz) <= tol * par[16]:
+            break
+        a11, a12, a22, _vx, _vz = end_gram(l, y, free, False)
+        mx, mz = solve_2x2(a11, a12, a12, a22, fx, fz)
+        subtract_jt(l, y, 0, free, mx, mz)
+    a11, a12, a22, vx, vz = end_gram(l, y, free, True)
+    mx, mz = solve_2x2(a11, a12, a12, a22, vx, vz)
+    subtract_jt(l, y, l.shape[0] + 1, free, mx, mz)
+
+
+@nb.njit(cache=True)
+def end_drift_packed(arr: np.ndarray, par: np.ndarray, y: np.ndarray) -> float:
+    """|p_n - anchor| [m]."""
+    px, pz = end_position(arr[0], y)
+    return np.hypot(px - par[11], pz - par[12])
+
+
+@nb.njit(cache=True)
+def schur_packed(arr: np.ndarray, par: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """``J M^-1 J^T`` (2x2, end accelerations per unit end force) in O(n), load excluded.
+
+    The inward and outward sweeps of the forward dynamics with only its two unit-force
+    right-hand sides (zero velocity and gravity); the terminal load is not included (as for
+    the anchored end and the heavy-load Woodbury form).
+    """
+    n = arr.shape[1]
+    l = arr[0]
+    cth = np.empty(n)
+    sth = np.empty(n)
+    link_trig(q, cth, sth)
+    dd = np.empty(n)
+    hx = np.empty(n)
+    hz = np.empty(n)
+    rr = np.empty((3, n))  # row 0 (applied forces) unused here
+    bx = np.zeros(3)
+    bz = np.zeros(3)
+    bx[1] = -1.0
+    bz[2] = -1.0
+    azz = inward_sweep(l, arr[1], cth, sth, q, dd, dd, dd, dd, False, 0.0, bx, bz, dd, hx, hz, rr)
+    out = np.empty((2, 2))
+    sol = np.empty(n + 1)
+    for k in range(2):
+        zdd = 0.0 if par[7] != 0.0 else -bz[k + 1] / (par[4] + azz)
+        out[0, k], out[1, k] = outward_sweep(l, cth, sth, q, False, dd, False, rr[k + 1], hx, hz,
+                                             dd, zdd, sol)
+    return out
+
+
+@nb.njit(cache=True)
+def condition_2x2(a11: float, a12: float, a21: float, a22: float) -> float:
+    """2-norm condition number of a 2x2 matrix (inf if singular)."""
+    # singular values from the Frobenius norm and the determinant
+    fro2 = a11 * a11 + a12 * a12 + a21 * a21 + a22 * a22
+    det = abs(a11 * a22 - a12 * a21)
+    disc = np.sqrt(max(fro2 * fro2 - 4.0 * det * det, 0.0))
+    smax2 = 0.5 * (fro2 + disc)
+    if det == 0.0 or smax2 == 0.0:
+        return np.inf
+    smin2 = det * det / smax2
+    return np.sqrt(smax2 / smin2)
+
+
+def schur_condition(model: CableModel, q: np.ndarray) -> float:
+    """Condition number of the anchored end's 2x2 ``J M^-1 J^T`` (load excluded), O(n).
+
+    Grows without bound as the line is pulled straight (kinematic singularity); the
+    integrators stop when it exceeds their ``max_condition``.
+
+    Parameters
+    ----------
+    model : CableModel
+        Immutable model.
+    q : ndarray (n+1,)
+        Generalised positions.
+
+    Returns
+    -------
+    float
+        The 2-norm condition number (inf if singular).
+    """
+    arr, par = pack_arrays(model)
+    s = schur_packed(arr, par, np.ascontiguousarray(q, dtype=float))
+    return float(condition_2x2(s[0, 0], s[0, 1], s[1, 0], s[1, 1]))

@@ -1,0 +1,73 @@
+"""Kinetic and potential energy of the chain in O(n) (compiled): link-centre velocities and
+spins, platform and load; heights for gravity, relative angles for the joint springs.
+
+Core layer, compiled kernel: imports numba, numpy, the kernel's ``sweeps`` and ``packing``
+and :mod:`cable_sim.core.model`.
+"""
+
+from __future__ import annotations
+
+import numba as nb
+import numpy as np
+
+from cable_sim.core.kernel.packing import pack, vec
+from cable_sim.core.kernel.sweeps import centre_velocity, next_pin_velocity
+from cable_sim.core.model import CableModel
+
+
+@nb.njit(cache=True)
+def _energy_kernel(l: np.ndarray, m: np.ndarray, mw: np.ndarray, jk: np.ndarray, mc: float, mcw: float,
+                   mp: float, hk: float, g: float, q: np.ndarray, qd: np.ndarray) -> tuple[float, float]:
+    """Kinetic and potential energy in O(n) from link-centre velocities and heights."""
+    n = l.shape[0]
+    vx = 0.0
+    vz = qd[0]
+    pz = q[0]
+    t_kin = 0.5 * mp * qd[0] * qd[0]
+    v_grav = 0.0
+    v_spr = 0.5 * hk * q[0] * q[0]
+    th_prev = 0.0
+    for i in range(n):
+        li = l[i]
+        c = np.cos(q[i + 1])
+        s = np.sin(q[i + 1])
+        w = qd[i + 1]
+        vcx, vcz = centre_velocity(vx, vz, li, c, s, w, 0.0)
+        t_kin += 0.5 * m[i] * (vcx * vcx + vcz * vcz) + 0.5 * (m[i] * li * li / 12.0) * w * w
+        pz_next = pz - li * c
+        v_grav += mw[i] * 0.5 * (pz + pz_next)
+        phi = q[i + 1] - th_prev
+        v_spr += 0.5 * jk[i] * phi * phi
+        th_prev = q[i + 1]
+        pz = pz_next
+        vx, vz = next_pin_velocity(vx, vz, li, c, s, w)
+    t_kin += 0.5 * mc * (vx * vx + vz * vz)
+    v_grav += mcw * pz
+    return t_kin, g * v_grav + v_spr
+
+
+def energy(model: CableModel, q: np.ndarray, qd: np.ndarray) -> tuple[float, float]:
+    """Kinetic and potential energy in O(n).
+
+    Parameters
+    ----------
+    model : CableModel
+        Immutable model.
+    q, qd : ndarray (n+1,)
+        Generalised positions and velocities.
+
+    Returns
+    -------
+    T : float
+        Kinetic energy ``1/2 qd^T M(q) qd`` [J], summed from link-centre velocities, link
+        spins, the platform and the load.
+    V : float
+        Potential energy [J], as :func:`cable_sim.core.dynamics.potential_energy`.
+    """
+    k = model.n + 1
+    p = pack(model)
+    t_kin, v_pot = _energy_kernel(
+        p[0], p[1], p[2], p[3], p[10], p[11], p[12], p[13], p[17],
+        vec(q, k, "q"), vec(qd, k, "qd"),
+    )
+    return float(t_kin), float(v_pot)

@@ -1,0 +1,102 @@
+"""The model as plain arrays for the compiled kernels (numba cannot take the dataclass).
+
+Two forms, each cached per model object: :func:`pack`, a tuple of the 23 arrays and scalars
+:func:`cable_sim.core.kernel.forward._fd_kernel` takes, and :func:`pack_arrays`, the same as two
+arrays (``arr`` per link, ``par`` scalars) for the compiled steppers, so that calling one costs
+a handful of argument conversions instead of ~30.
+
+Core layer: imports numpy and :mod:`cable_sim.core.model` only (no numba).
+"""
+
+from __future__ import annotations
+
+import weakref
+
+import numpy as np
+
+from cable_sim.core.model import CableModel
+
+#: Rows of the per-link array returned by :func:`pack_arrays`.
+ARR_ROWS = 8
+
+_PACK_CACHE: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+_ARRAYS_CACHE: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def _arr(a: np.ndarray) -> np.ndarray:
+    return np.ascontiguousarray(a, dtype=np.float64)
+
+
+def vec(x: np.ndarray, size: int, name: str) -> np.ndarray:
+    """``x`` as a contiguous float64 vector of length ``size`` (ValueError naming ``name``)."""
+    a = np.ascontiguousarray(x, dtype=np.float64)
+    if a.shape != (size,):
+        raise ValueError(f"{name} has shape {a.shape}; expected ({size},)")
+    return a
+
+
+def pack(model: CableModel) -> tuple:
+    """Plain-typed model data for the kernels (cached per model object)."""
+    try:
+        return _PACK_CACHE[model]
+    except (KeyError, TypeError):
+        pass
+    fd = (
+        _arr(model.length),
+        _arr(model.mass),
+        _arr(model.weight_mass),
+        _arr(model.joint_k),
+        _arr(model.joint_c),
+        _arr(model.drag_gamma_l2),
+        _arr(model.morison_cn),
+        _arr(model.morison_ct),
+        float(model.current),
+        int(model.drag),
+        float(model.load_mass),
+        float(model.load_weight_mass),
+        float(model.platform_mass),
+        float(model.heave_k),
+        float(model.heave_c),
+        bool(model.heave_locked),
+        bool(model.wave_coupling),
+        float(model.gravity),
+        bool(model.constrained),
+        float(model.anchor[0]),
+        float(model.anchor[1]),
+        float(model.baumgarte_alpha),
+        float(model.baumgarte_beta),
+    )
+    try:
+        _PACK_CACHE[model] = fd
+    except TypeError:
+        pass
+    return fd
+
+
+def pack_arrays(model: CableModel) -> tuple[np.ndarray, np.ndarray]:
+    """The model as two arrays for the compiled steppers (cached per model object).
+
+    Returns
+    -------
+    arr : ndarray (8, n)
+        Rows: l, m, m~, k, c, gamma l^2/4, Morison c_n, Morison c_t.
+    par : ndarray (17,)
+        current, drag code, m_c, m~_c, M, k_m, c_m, heave_locked, wave_coupling, g,
+        constrained, anchor x, anchor z, Baumgarte alpha, beta, end code, total length.
+    """
+    try:
+        return _ARRAYS_CACHE[model]
+    except (KeyError, TypeError):
+        pass
+    p = pack(model)
+    arr = np.ascontiguousarray(np.stack(p[:8]), dtype=np.float64)
+    par = np.array(
+        [p[8], p[9], p[10], p[11], p[12], p[13], p[14], float(p[15]), float(p[16]), p[17],
+         float(p[18]), p[19], p[20], p[21], p[22], float(model.end), float(np.sum(model.length))],
+        dtype=np.float64,
+    )
+    try:
+        _ARRAYS_CACHE[model] = (arr, par)
+    except TypeError:
+        pass
+    return arr, par

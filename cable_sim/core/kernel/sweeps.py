@@ -1,0 +1,308 @@
+"""The shared O(n) sweeps of the articulated-body recursion on the planar chain (``MODEL.md``).
+
+One implementation of each piece, used by the forward-dynamics kernel
+(:mod:`cable_sim.core.kernel.forward`), the anchor's Schur complement
+(:mod:`cable_sim.core.kernel.anchor`) and the implicit operator
+(:mod:`cable_sim.integrate.implicit.operator`):
+
+* link kinematics: the links' cos/sin, centre velocity relative to the water, the next pin's
+  velocity, a velocity in the link frame (``t = (cos, sin)`` normal, ``e = (sin, -cos)`` axis);
+* the Morison drag force on a link centre; the joint torques; whether the load enters by
+  Woodbury;
+* a 2x2 articulated inertia seen in the link frame and turned back to the world frame;
+* the inward (tip to platform) sweep of the 2x2 articulated inertias and bias forces, with the
+  unit end-force right-hand sides of the anchor and the heavy-load Woodbury form;
+* the outward (platform to tip) acceleration sweep, also for the implicit operator's 3x3 form
+  (joint "armature" coupling a link to its parent's rotation);
+* the 2x2 solve and the column update of the anchor / heavy-load correction.
+
+Every function takes plain arrays and floats (compiled with numba, ``cache=True``); the small
+per-link ones are inlined (``inline="always"``) into their callers.
+
+Core layer, compiled kernel: imports numba and numpy only.
+"""
+
+from __future__ import annotations
+
+import numba as nb
+import numpy as np
+
+#: Magnitude below which the unit-force right-hand sides are flushed to zero: a unit end force
+#: on a line without tension (zero velocity and gravity in these solves) decays geometrically up
+#: the line; flushing it long before it turns subnormal keeps it fast (subnormal arithmetic is
+#: ~100x slower). 1e-150 of the unit force.
+TINY = 1e-150
+EPS = float(np.finfo(np.float64).eps)
+
+
+# ---- link kinematics ---------------------------------------------------------------------------
+
+
+@nb.njit(cache=True, inline="always")
+def link_trig(q: np.ndarray, cth: np.ndarray, sth: np.ndarray) -> None:
+    """``cth[i], sth[i] = cos, sin`` of link i's absolute angle ``q[i + 1]``."""
+    for i in range(cth.shape[0]):
+        cth[i] = np.cos(q[i + 1])
+        sth[i] = np.sin(q[i + 1])
+
+
+@nb.njit(cache=True, inline="always")
+def centre_velocity(
+    vx: float, vz: float, li: float, c: float, s: float, w: float, current: float
+) -> tuple[float, float]:
+    """Velocity of a link's centre relative to the water, from its top pin's velocity."""
+    hl = 0.5 * li * w
+    return vx + hl * c - current, vz + hl * s
+
+
+@nb.njit(cache=True, inline="always")
+def next_pin_velocity(
+    vx: float, vz: float, li: float, c: float, s: float, w: float
+) -> tuple[float, float]:
+    """Velocity of a link's bottom pin from its top pin's velocity."""
+    return vx + li * c * w, vz + li * s * w
+
+
+@nb.njit(cache=True, inline="always")
+def link_frame_velocity(vx: float, vz: float, c: float, s: float) -> tuple[float, float]:
+    """Components of (vx, vz) along the link normal ``t`` and along the link axis ``e``."""
+    return vx * c + vz * s, vx * s - vz * c
+
+
+@nb.njit(cache=True, inline="always")
+def from_link_frame(vt: float, ve: float, c: float, s: float) -> tuple[float, float]:
+    """World (x, z) of ``vt t + ve e``."""
+    return vt * c + ve * s, vt * s - ve * c
+
+
+@nb.njit(cache=True, inline="always")
+def link_drag(
+    c: float, s: float, vcx: float, vcz: float, cn: float, ct: float
+) -> tuple[float, float]:
+    """Morison force on one link centre (same arithmetic as the dense ``link_drag_forces``)."""
+    vt_mag = link_frame_velocity(vcx, vcz, c, s)[1]  # axial component, e = (s, -c)
+    vtx = vt_mag * s
+    vtz = -vt_mag * c
+    vnx = vcx - vtx
+    vnz = vcz - vtz
+    vn_mag = np.hypot(vnx, vnz)
+    fx = -cn * vn_mag * vnx - ct * abs(vt_mag) * vtx
+    fz = -cn * vn_mag * vnz - ct * abs(vt_mag) * vtz
+    return fx, fz
+
+
+# ---- joints and load ------------------------------------------------------------------------
+
+
+@nb.njit(cache=True)
+def joint_torques(jk: np.ndarray, jc: np.ndarray, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
+    """``tau_1..tau_n`` of the joint springs/dampers on relative angles (joint 1 relative to the
+    vertical), and ``tau_(n+1) = 0``."""
+    n = jk.shape[0]
+    tau = np.empty(n + 1)
+    th_prev = 0.0
+    w_prev = 0.0
+    for i in range(n):
+        tau[i] = jk[i] * (q[i + 1] - th_prev) + jc[i] * (qd[i + 1] - w_prev)
+        th_prev = q[i + 1]
+        w_prev = qd[i + 1]
+    tau[n] = 0.0
+    return tau
+
+
+@nb.njit(cache=True)
+def woodbury_load(m: np.ndarray, mc: float, constrained: bool, locked: bool) -> bool:
+    """Whether the terminal load enters by Woodbury rather than as ``A_(n+1) = m_c I``.
+
+    A heavy load (paper anchor: 8e8 kg) in the recursion would make the articulated inertias
+    carry m_c-sized terms whose differences are the physical answer (cancellation). A single
+    link on a locked platform keeps the direct form (``J M^-1 J^T`` is then singular; the
+    recursion is exact there).
+    """
+    n = m.shape[0]
+    line_mass = 0.0
+    for i in range(n):
+        line_mass += m[i]
+    return (not constrained) and mc > line_mass and not (locked and n == 1)
+
+
+# ---- 2x2 articulated inertia in the link frame -------------------------------------------------
+
+
+@nb.njit(cache=True, inline="always")
+def link_frame(axx: float, axz: float, azz: float, c: float, s: float) -> tuple[float, float, float]:
+    """``t^T A t, t^T A e, e^T A e`` of a symmetric world-frame A (xx, xz, zz).
+
+    Written so that an isotropic A (the load, ``m_c I``) gives ``t^T A e = 0`` exactly.
+    """
+    cs = c * s
+    x = axx * c * c + 2.0 * axz * cs + azz * s * s
+    y = (axx - azz) * cs + axz * (s * s - c * c)
+    z = axx * s * s - 2.0 * axz * cs + azz * c * c
+    return x, y, z
+
+
+@nb.njit(cache=True, inline="always")
+def to_world(a_tt: float, a_te: float, a_ee: float, c: float, s: float) -> tuple[float, float, float]:
+    """World-frame (xx, xz, zz) of ``a_tt t t^T + a_te (t e^T + e t^T) + a_ee e e^T``."""
+    axx = a_tt * c * c + 2.0 * a_te * c * s + a_ee * s * s
+    axz = a_tt * c * s + a_te * (s * s - c * c) - a_ee * s * c
+    azz = a_tt * s * s - 2.0 * a_te * s * c + a_ee * c * c
+    return axx, axz, azz
+
+
+@nb.njit(cache=True, inline="always")
+def articulated_inertia(
+    mi: float, x: float, y: float, z: float, xp: float, c: float, s: float
+) -> tuple[float, float, float]:
+    """New articulated inertia A' = m I + A - h h^T / D of a link, world-frame (xx, xz, zz).
+
+    Assembled in the link frame (t, e) to avoid cancellation in the t direction, then rotated.
+    """
+    a_tt = mi * (x / 3.0 + mi / 12.0) / xp
+    a_te = -y * (mi / 6.0) / xp
+    a_ee = mi + z - y * y / xp
+    return to_world(a_tt, a_te, a_ee, c, s)
+
+
+# ---- inward sweep (tip to platform) ------------------------------------------------------------
+
+
+@nb.njit(cache=True, inline="always")
+def bias_step(
+    bx: float, bz: float, r_applied: float, fgx: float, fgz: float, li: float, mi: float,
+    c: float, s: float, w2: float, y: float, aex: float, aez: float, h_x: float, h_z: float,
+    d: float,
+) -> tuple[float, float, float]:
+    """One link of the applied-force right-hand side: ``R_i`` and the new bias ``b_i``.
+
+    ``r_applied = -tau_i + tau_(i+1) + C_i + (l/2) t.G_i`` (couples on the link).
+    """
+    r0 = r_applied + li * li * w2 * y - li * (c * bx + s * bz)
+    bx += -fgx - w2 * (0.5 * mi * li * s + li * aex) + h_x * r0 / d
+    bz += -fgz - w2 * (-0.5 * mi * li * c + li * aez) + h_z * r0 / d
+    return r0, bx, bz
+
+
+@nb.njit(cache=True, inline="always")
+def unit_force_step(
+    bx: float, bz: float, li: float, c: float, s: float, h_x: float, h_z: float, d: float
+) -> tuple[float, float, float]:
+    """One link of a unit end-force right-hand side (no velocity, no gravity), flushed at TINY."""
+    rk = -li * (c * bx + s * bz)
+    bx += h_x * rk / d
+    bz += h_z * rk / d
+    if abs(bx) + abs(bz) < TINY:
+        bx = 0.0
+        bz = 0.0
+    return rk, bx, bz
+
+
+@nb.njit(cache=True)
+def inward_sweep(
+    l: np.ndarray, m: np.ndarray, cth: np.ndarray, sth: np.ndarray, qd: np.ndarray,
+    tau: np.ndarray, cpl: np.ndarray, fgx: np.ndarray, fgz: np.ndarray, bias: bool,
+    mload: float, bx: np.ndarray, bz: np.ndarray, dd: np.ndarray, hx: np.ndarray,
+    hz: np.ndarray, rr: np.ndarray,
+) -> float:
+    """Articulated inertias (force-independent) and bias forces, tip to platform.
+
+    Starts from the load ``A_(n+1) = mload I`` and the end forces ``bx, bz`` (one per
+    right-hand side, updated in place to the platform's). Row 0 is the applied forces (when
+    ``bias``: joint torques ``tau``, couples ``cpl``, centre forces ``fgx, fgz``, velocities);
+    rows 1.. are unit end forces. Fills ``dd`` (D_i), ``hx, hz`` (h_i) and ``rr`` (R_i per
+    right-hand side); returns ``A_1,zz`` (the platform's articulated mass beyond its own).
+    """
+    n = l.shape[0]
+    nrhs = bx.shape[0]
+    axx = mload
+    axz = 0.0
+    azz = mload
+    for i in range(n - 1, -1, -1):
+        c = cth[i]
+        s = sth[i]
+        li = l[i]
+        mi = m[i]
+        x, y, z = link_frame(axx, axz, azz, c, s)
+        xp = x + mi / 3.0
+        d = li * li * xp
+        h_x = li * (axx * c + axz * s) + 0.5 * mi * li * c
+        h_z = li * (axz * c + azz * s) + 0.5 * mi * li * s
+        dd[i] = d
+        hx[i] = h_x
+        hz[i] = h_z
+        if bias:
+            ra = -tau[i] + tau[i + 1] + cpl[i] + 0.5 * li * (c * fgx[i] + s * fgz[i])
+            w2 = qd[i + 1] * qd[i + 1]
+            rr[0, i], bx[0], bz[0] = bias_step(
+                bx[0], bz[0], ra, fgx[i], fgz[i], li, mi, c, s, w2, y,
+                axx * s - axz * c, axz * s - azz * c, h_x, h_z, d,
+            )
+        for k in range(1, nrhs):
+            rr[k, i], bx[k], bz[k] = unit_force_step(bx[k], bz[k], li, c, s, h_x, h_z, d)
+        axx, axz, azz = articulated_inertia(mi, x, y, z, xp, c, s)
+    return azz
+
+
+# ---- outward sweep (platform to tip) -----------------------------------------------------------
+
+
+@nb.njit(cache=True, inline="always")
+def outward_sweep(
+    l: np.ndarray, cth: np.ndarray, sth: np.ndarray, qd: np.ndarray, velocity: bool,
+    beta: np.ndarray, coupled: bool, rr: np.ndarray, hx: np.ndarray, hz: np.ndarray,
+    dd: np.ndarray, zdd: float, sol: np.ndarray,
+) -> tuple[float, float]:
+    """Link accelerations from the platform's ``zdd`` outwards; returns the end's acceleration.
+
+    ``alpha_i = (R_i - h_i . a_(i-1) [+ beta_i alpha_(i-1)]) / D_i`` (the bracket with
+    ``coupled``: the implicit operator's joint armature), ``a_i = a_(i-1) + l (t alpha_i - e w^2)``
+    (the centripetal term with ``velocity``, from ``qd``). Writes ``sol = [zdd, alpha_1..n]``.
+    """
+    n = l.shape[0]
+    sol[0] = zdd
+    ap = 0.0
+    apx = 0.0
+    apz = zdd
+    for i in range(n):
+        li = l[i]
+        if coupled:
+            alpha = (beta[i] * ap - hx[i] * apx - hz[i] * apz + rr[i]) / dd[i]
+        else:
+            alpha = (rr[i] - hx[i] * apx - hz[i] * apz) / dd[i]
+        sol[i + 1] = alpha
+        ap = alpha
+        if velocity:
+            w2 = qd[i + 1] * qd[i + 1]
+            apx += li * (cth[i] * alpha - sth[i] * w2)
+            apz += li * (sth[i] * alpha + cth[i] * w2)
+        else:
+            apx += li * (cth[i] * alpha)
+            apz += li * (sth[i] * alpha)
+    return apx, apz
+
+
+# ---- 2x2 end correction (anchor constraint, heavy load) ----------------------------------------
+
+
+@nb.njit(cache=True, inline="always")
+def singular_2x2(a11: float, a12: float, a21: float, a22: float) -> bool:
+    """True if the 2x2 matrix is singular to working precision."""
+    det = a11 * a22 - a12 * a21
+    return abs(det) <= 4.0 * EPS * (abs(a11 * a22) + abs(a12 * a21))
+
+
+@nb.njit(cache=True, inline="always")
+def solve_2x2(
+    a11: float, a12: float, a21: float, a22: float, r0: float, r1: float
+) -> tuple[float, float]:
+    """``[[a11, a12], [a21, a22]]^-1 (r0, r1)`` by Cramer's rule."""
+    det = a11 * a22 - a12 * a21
+    return (a22 * r0 - a12 * r1) / det, (a11 * r1 - a21 * r0) / det
+
+
+@nb.njit(cache=True, inline="always")
+def add_columns(out: np.ndarray, x0: np.ndarray, f0: float, x1: np.ndarray, f1: float) -> None:
+    """``out += x0 f0 + x1 f1`` (the end correction ``X f``)."""
+    for j in range(out.shape[0]):
+        out[j] += x0[j] * f0 + x1[j] * f1

@@ -1,0 +1,403 @@
+"""The O(n) operator ``M~ = M + hg D + hg^2 K`` of the linearly implicit schemes: factor, solve,
+product.
+
+``M~`` is the mass matrix of a modified chain (see :mod:`cable_sim.integrate.implicit`): joint
+armature ``beta_i = hg c_i + hg^2 k_i``, extra platform mass, extra link rotational inertia and
+anisotropic extra centre masses. The articulated inertia seen at a pin is then 3x3 instead of
+the 2x2 of the forward dynamics; the inward recursion (:func:`_op_inward`) is specific to it,
+everything else -- link kinematics, drag velocities, the link-frame transforms, the outward
+acceleration sweep, the Woodbury choice, the 2x2 end correction -- is the shared implementation
+of :mod:`cable_sim.core.kernel.sweeps`.
+
+Factorisation workspace: ``W`` (``_NW`` rows of n per-link values), ``S`` (``_NS`` scalars),
+``X`` (the two unit end-force solutions ``M~^-1 J^T``, anchored end or heavy load).
+
+Integrate layer: imports numba, numpy, :mod:`cable_sim.core.kernel` (packing, sweeps) and
+:mod:`cable_sim.core.model`.
+"""
+
+from __future__ import annotations
+
+import numba as nb
+import numpy as np
+
+from cable_sim.core.kernel.packing import pack_arrays
+from cable_sim.core.kernel.sweeps import (
+    TINY,
+    add_columns,
+    centre_velocity,
+    from_link_frame,
+    joint_torques,
+    link_frame,
+    link_frame_velocity,
+    link_trig,
+    next_pin_velocity,
+    outward_sweep,
+    singular_2x2,
+    solve_2x2,
+    to_world,
+    woodbury_load,
+)
+from cable_sim.core.model import CableModel
+
+# rows of the per-link workspace W (n columns)
+_W_COS, _W_SIN, _W_D, _W_UX, _W_UZ, _W_BETA, _W_ROT, _W_GT, _W_GE, _W_BCN, _W_DROT, _W_KGEO = range(12)
+_NW = 12
+# entries of the scalar workspace S
+_S_BETA0, _S_AZZ, _S_J00, _S_J01, _S_J10, _S_J11, _S_MODE, _S_MC = range(8)
+_NS = 8
+_MODE_NONE, _MODE_CONSTRAINED, _MODE_HEAVY = 0.0, 1.0, 2.0
+
+
+# --------------------------------------------------------------------------------------------
+# Factorisation: per-link terms, inward 3x3 sweep, unit end forces
+# --------------------------------------------------------------------------------------------
+
+
+@nb.njit(cache=True)
+def _link_terms(arr: np.ndarray, par: np.ndarray, q: np.ndarray, qd: np.ndarray, hg: float,
+                kgeo: np.ndarray, W: np.ndarray) -> None:
+    """Per-link terms of ``M~`` at (q, qd) into W: cos/sin, joint armature ``beta``, extra
+    rotational inertia (paper drag ``drot``, tension stiffness ``kg``), extra centre masses
+    ``g_t, g_e`` (the Jacobian of the Morison force: ``2 c_n |v.t|``, ``2 c_t |v.e|``)."""
+    n = arr.shape[1]
+    l = arr[0]
+    jk = arr[3]
+    jc = arr[4]
+    gl2 = arr[5]
+    cn = arr[6]
+    ct = arr[7]
+    current = par[0]
+    drag = int(par[1])
+    hg2 = hg * hg
+    link_trig(q, W[_W_COS], W[_W_SIN])
+    vx = 0.0
+    vz = qd[0]
+    for i in range(n):
+        c = W[_W_COS, i]
+        s = W[_W_SIN, i]
+        W[_W_BETA, i] = hg * jc[i] + hg2 * jk[i]
+        W[_W_KGEO, i] = hg * kgeo[i]
+        w = qd[i + 1]
+        W[_W_DROT, i] = 0.0
+        W[_W_GT, i] = 0.0
+        W[_W_GE, i] = 0.0
+        if drag == 1:
+            W[_W_DROT, i] = hg * 2.0 * gl2[i] * abs(w)
+        elif drag == 2:
+            vcx, vcz = centre_velocity(vx, vz, l[i], c, s, w, current)
+            vt, ve = link_frame_velocity(vcx, vcz, c, s)  # normal (along t), axial (along e)
+            W[_W_GT, i] = hg * 2.0 * cn[i] * abs(vt)
+            W[_W_GE, i] = hg * 2.0 * ct[i] * abs(ve)
+            vx, vz = next_pin_velocity(vx, vz, l[i], c, s, w)
+        W[_W_ROT, i] = W[_W_DROT, i] + hg * W[_W_KGEO, i]
+
+
+@nb.njit(cache=True)
+def _op_inward(arr: np.ndarray, W: np.ndarray, mload: float) -> float:
+    """The 3x3 articulated inertias ``[[c, w^T], [w, A]]``, tip to platform; fills ``D_i`` and
+    ``u_i`` (world frame) in W and returns the platform's ``A_zz`` (see :func:`_op_factor`)."""
+    n = arr.shape[1]
+    l = arr[0]
+    m = arr[1]
+    cth = W[_W_COS]
+    sth = W[_W_SIN]
+    beta = W[_W_BETA]
+    rot = W[_W_ROT]
+    axx = mload
+    axz = 0.0
+    azz = mload
+    cc = 0.0
+    wx = 0.0
+    wz = 0.0
+    for i in range(n - 1, -1, -1):
+        c = cth[i]
+        s = sth[i]
+        li = l[i]
+        mi = m[i]
+        il2 = 1.0 / (li * li)
+        p_tt, r_te, s_ee = link_frame(axx, axz, azz, c, s)
+        wt, we = link_frame_velocity(wx, wz, c, s)
+        mt = mi + W[_W_GT, i]
+        me = mi + W[_W_GE, i]
+        bi = beta[i]
+        rp = (rot[i] + bi) * il2
+        dn = mi / 12.0 + rp + 0.25 * mt + cc * il2 + 2.0 * wt / li + p_tt  # D / l^2
+        d = li * li * dn
+        ut = 0.5 * li * mt + wt + li * p_tt
+        ue = we + li * r_te
+        a_tt = ((mt + p_tt) * (mi / 12.0 + rp) + mt * (cc * il2 + wt / li + 0.25 * p_tt)
+                + (p_tt * cc - wt * wt) * il2) / dn
+        axx, axz, azz = to_world(a_tt, r_te - ut * ue / d, me + s_ee - ue * ue / d, c, s)
+        uxw, uzw = from_link_frame(ut, ue, c, s)
+        W[_W_D, i] = d
+        W[_W_UX, i] = uxw
+        W[_W_UZ, i] = uzw
+        # rotational coupling passed to the parent (zero without armature)
+        dnb = li * li * (mi / 12.0 + rot[i] * il2 + 0.25 * mt + cc * il2 + 2.0 * wt / li + p_tt)
+        cc = bi * dnb / d
+        wx = bi * uxw / d
+        wz = bi * uzw / d
+    return azz
+
+
+@nb.njit(cache=True, inline="always")
+def _op_rhs_inward(l: np.ndarray, W: np.ndarray, rhs: np.ndarray, use_rhs: bool, bx: float,
+                   bz: float, rr: np.ndarray) -> tuple[float, float]:
+    """Inward sweep of one right-hand side through a factorisation: a generalised force ``rhs``
+    (``use_rhs``) or a unit end force (``bx, bz`` at the end; flushed at TINY). Stores ``-b_i``
+    in ``rr`` (read by the outward sweep) and returns the force on the platform."""
+    cth = W[_W_COS]
+    sth = W[_W_SIN]
+    dd = W[_W_D]
+    uxa = W[_W_UX]
+    uza = W[_W_UZ]
+    beta = W[_W_BETA]
+    bn = 0.0
+    for i in range(l.shape[0] - 1, -1, -1):
+        b = bn + l[i] * (cth[i] * bx + sth[i] * bz)
+        if use_rhs:
+            b -= rhs[i + 1]
+        rr[i] = -b
+        r = b / dd[i]
+        bn = beta[i] * r
+        bx -= uxa[i] * r
+        bz -= uza[i] * r
+        if not use_rhs and abs(bx) + abs(bz) + abs(bn) < TINY:
+            bn = 0.0
+            bx = 0.0
+            bz = 0.0
+    return bx, bz
+
+
+@nb.njit(cache=True)
+def _op_unit_forces(arr: np.ndarray, par: np.ndarray, W: np.ndarray, S: np.ndarray,
+                    X: np.ndarray) -> None:
+    """``X = M~^-1 J^T`` (two unit end forces, +x and +z) and ``J X`` into S."""
+    l = arr[0]
+    locked = par[7] != 0.0
+    mp = par[4]
+    for k in range(2):
+        bx, bz = _op_rhs_inward(l, W, X[k], False, -1.0 if k == 0 else 0.0,
+                                0.0 if k == 0 else -1.0, X[k, 1:])
+        zdd = 0.0 if locked else -bz / (mp + S[_S_BETA0] + S[_S_AZZ])
+        # column k of J X: (J00, J10) for k = 0 -> stored J00, J01 = row 0
+        S[_S_J00 + k], S[_S_J10 + k] = outward_sweep(
+            l, W[_W_COS], W[_W_SIN], X[k], False, W[_W_BETA], True, X[k, 1:], W[_W_UX],
+            W[_W_UZ], W[_W_D], zdd, X[k])
+
+
+@nb.njit(cache=True)
+def _op_factor(arr: np.ndarray, par: np.ndarray, q: np.ndarray, qd: np.ndarray, hg: float,
+               kgeo: np.ndarray, W: np.ndarray, S: np.ndarray, X: np.ndarray) -> bool:
+    """Articulated inertias of ``M~ = M + hg D + hg^2 K`` at (q, qd); fills W, S, X.
+
+    Backward sweep (tip to platform). For the subtree below pin p_{i-1} the 3x3 articulated
+    inertia maps the parent's (angular acceleration, pin acceleration) to the (couple, force)
+    the parent applies: ``[[c, w^T], [w, A]]``. For link i (axis e, normal t, length l, mass m,
+    extra rotational inertia rho, extra centre masses g_t, g_e along t, e, joint armature beta)
+    with the child's ``c, w, A`` expressed in the link frame (P = t.A.t, R = t.A.e, ...):
+
+        D   = m l^2/12 + rho + beta + l^2 (m+g_t)/4 + c + 2 l w_t + l^2 P
+        u   = (l (m+g_t)/2 + w_t + l P) t + (w_e + l R) e        (couple-force coupling)
+        A'  = diag_te(m+g_t, m+g_e) + A - u u^T / D,   w' = beta u / D,  c' = beta (D - beta) / D
+
+    with ``A'_tt`` assembled from non-negative terms (no cancellation; it reduces to the fast
+    kernel's ``a_tt`` when beta = rho = g = 0). Forward sweep:
+    ``alpha_i = (beta_i alpha_{i-1} - u_i . a_{i-1} - b_i) / D_i``, ``a_i = a_{i-1} + l t alpha_i``.
+
+    The two unit end-force solves ``X = M~^-1 J^T`` and ``J X`` are done here (anchored end, or
+    Woodbury for a heavy load). Returns False if the anchored end's ``J X`` is singular.
+    """
+    constrained = par[10] != 0.0
+    mc = par[2]
+    _link_terms(arr, par, q, qd, hg, kgeo, W)
+    heavy = woodbury_load(arr[1], mc, constrained, par[7] != 0.0)
+    extra = constrained or heavy
+    azz = _op_inward(arr, W, 0.0 if extra else mc)
+    S[_S_BETA0] = hg * par[6] + (hg * hg) * par[5]
+    S[_S_AZZ] = azz
+    S[_S_MC] = mc
+    if not extra:
+        S[_S_MODE] = _MODE_NONE
+        return True
+    S[_S_MODE] = _MODE_CONSTRAINED if constrained else _MODE_HEAVY
+    _op_unit_forces(arr, par, W, S, X)
+    return not (constrained and singular_2x2(S[_S_J00], S[_S_J01], S[_S_J10], S[_S_J11]))
+
+
+# --------------------------------------------------------------------------------------------
+# Solve and product
+# --------------------------------------------------------------------------------------------
+
+
+@nb.njit(cache=True)
+def _op_solve(arr: np.ndarray, par: np.ndarray, W: np.ndarray, S: np.ndarray, X: np.ndarray,
+              rhs: np.ndarray, x: np.ndarray) -> None:
+    """Solve ``M~ x = rhs`` (anchored: with ``J x = 0``) using a factorisation from
+    :func:`_op_factor`. ``rhs`` is a generalised force: ``rhs[0]`` a vertical force on the
+    platform, ``rhs[i]`` a couple on link i."""
+    l = arr[0]
+    bcn = W[_W_BCN]
+    _bx, bz = _op_rhs_inward(l, W, rhs, True, 0.0, 0.0, bcn)
+    zdd = 0.0 if par[7] != 0.0 else (rhs[0] - bz) / (par[4] + S[_S_BETA0] + S[_S_AZZ])
+    apx, apz = outward_sweep(l, W[_W_COS], W[_W_SIN], x, False, W[_W_BETA], True, bcn, W[_W_UX],
+                             W[_W_UZ], W[_W_D], zdd, x)
+    mode = S[_S_MODE]
+    if mode == _MODE_NONE:
+        return
+    eps = 1.0 / S[_S_MC] if mode == _MODE_HEAVY else 0.0
+    a11 = S[_S_J00] + eps
+    a22 = S[_S_J11] + eps
+    f0, f1 = solve_2x2(a11, S[_S_J01], S[_S_J10], a22, -apx, -apz)
+    add_columns(x, X[0], f0, X[1], f1)
+
+
+@nb.njit(cache=True)
+def _dk_product(arr: np.ndarray, par: np.ndarray, hg: float, W: np.ndarray, rd: np.ndarray,
+                rk: np.ndarray, out: np.ndarray) -> None:
+    """``out = hg D rd + hg K rk`` with the local ``D``, ``K`` of the factorisation in W."""
+    n = arr.shape[1]
+    l = arr[0]
+    drot = W[_W_DROT]
+    kg = W[_W_KGEO]
+    out[0] = hg * (par[6] * rd[0] + par[5] * rk[0])
+    # joint torques tau_i on relative angles (springs on rk, dampers on rd); Q_i = tau_i - tau_{i+1}
+    tau = joint_torques(arr[3], arr[4], rk, rd)
+    for i in range(n):
+        out[i + 1] = hg * tau[i] - hg * tau[i + 1]
+        out[i + 1] += drot[i] * rd[i + 1] + kg[i] * rk[i + 1]
+    if int(par[1]) == 2:
+        _morison_product(l, W, rd, out)
+
+
+@nb.njit(cache=True)
+def _morison_product(l: np.ndarray, W: np.ndarray, rd: np.ndarray, out: np.ndarray) -> None:
+    """``out += J_c^T (hg G) J_c rd``: centre "velocities" ``J_c rd``, forces ``hg G J_c rd``,
+    generalised by ``J_c^T`` (reverse sums)."""
+    n = l.shape[0]
+    cth = W[_W_COS]
+    sth = W[_W_SIN]
+    gta = W[_W_GT]
+    gea = W[_W_GE]
+    fxa = np.empty(n)
+    fza = np.empty(n)
+    vx = 0.0
+    vz = rd[0]
+    for i in range(n):
+        c = cth[i]
+        s = sth[i]
+        ux, uz = centre_velocity(vx, vz, l[i], c, s, rd[i + 1], 0.0)
+        ut, ue = link_frame_velocity(ux, uz, c, s)
+        fxa[i], fza[i] = from_link_frame(gta[i] * ut, gea[i] * ue, c, s)
+        vx, vz = next_pin_velocity(vx, vz, l[i], c, s, rd[i + 1])
+    sx = 0.0
+    sz = 0.0
+    for i in range(n - 1, -1, -1):
+        out[i + 1] += l[i] * (cth[i] * (0.5 * fxa[i] + sx) + sth[i] * (0.5 * fza[i] + sz))
+        sx += fxa[i]
+        sz += fza[i]
+    out[0] += sz
+
+
+@nb.njit(cache=True)
+def _kgeo_from_forces(arr: np.ndarray, q: np.ndarray, F: np.ndarray, kgeo: np.ndarray) -> None:
+    """Tension stiffness ``kappa_i = max(0, l_i T_i)``, T_i the mean axial tension of link i."""
+    n = arr.shape[1]
+    l = arr[0]
+    for i in range(n):
+        s = np.sin(q[i + 1])
+        c = np.cos(q[i + 1])
+        # axial tension at the top (-F_i . e) and bottom (-F_{i+1} . e) of link i, e = (s, -c)
+        t = -0.5 * ((F[i, 0] + F[i + 1, 0]) * s - (F[i, 1] + F[i + 1, 1]) * c)
+        kgeo[i] = max(0.0, l[i] * t)
+
+
+# --------------------------------------------------------------------------------------------
+# Python-level helpers (tests, dense fallback, diagnostics)
+# --------------------------------------------------------------------------------------------
+
+
+def geometric_stiffness(model: CableModel, q: np.ndarray, F: np.ndarray) -> np.ndarray:
+    """Tension stiffness ``kappa_i = max(0, l_i T_i)`` [N m/rad] from joint forces ``F``.
+
+    Parameters
+    ----------
+    model : CableModel
+    q : ndarray (n+1,)
+    F : ndarray (n+1, 2)
+        Joint forces (:func:`cable_sim.core.dynamics.joint_forces`).
+    """
+    th = q[1:]
+    e = np.stack([np.sin(th), -np.cos(th)], axis=1)
+    t_mean = -0.5 * np.sum((F[:-1] + F[1:]) * e, axis=1)
+    return np.maximum(0.0, model.length * t_mean)
+
+
+def _factor_fast(model: CableModel, q: np.ndarray, qd: np.ndarray, hg: float,
+                 kgeo: np.ndarray | None):
+    arr, par = pack_arrays(model)
+    n = model.n
+    W = np.zeros((_NW, n))
+    S = np.zeros(_NS)
+    X = np.zeros((2, n + 1))
+    kg = np.zeros(n) if kgeo is None else np.ascontiguousarray(kgeo, dtype=float)
+    ok = _op_factor(arr, par, np.ascontiguousarray(q, dtype=float),
+                    np.ascontiguousarray(qd, dtype=float), float(hg), kg, W, S, X)
+    return arr, par, W, S, X, ok
+
+
+def operator_solve(
+    model: CableModel,
+    q: np.ndarray,
+    qd: np.ndarray,
+    hg: float,
+    rhs: np.ndarray,
+    kgeo: np.ndarray | None = None,
+) -> np.ndarray:
+    """Solve ``(M + hg D + hg^2 K) x = rhs`` in O(n) (anchored end: subject to ``J x = 0``).
+
+    Parameters
+    ----------
+    model : CableModel
+    q, qd : ndarray (n+1,)
+        State at which ``M``, ``D`` (drag linearisation) are evaluated.
+    hg : float
+        ``gamma h`` [s]; 0 gives the plain mass matrix.
+    rhs : ndarray (n+1,)
+        Generalised force.
+    kgeo : ndarray (n,), optional
+        Tension stiffness per link (see :func:`geometric_stiffness`); zero if omitted.
+
+    Returns
+    -------
+    x : ndarray (n+1,)
+
+    Raises
+    ------
+    numpy.linalg.LinAlgError
+        If the anchored end's 2x2 Schur matrix is singular.
+    """
+    arr, par, W, S, X, ok = _factor_fast(model, q, qd, hg, kgeo)
+    if not ok:
+        raise np.linalg.LinAlgError("singular anchor constraint matrix J M~^-1 J^T")
+    x = np.empty(model.ndof)
+    _op_solve(arr, par, W, S, X, np.ascontiguousarray(rhs, dtype=float), x)
+    return x
+
+
+def operator_product(
+    model: CableModel,
+    q: np.ndarray,
+    qd: np.ndarray,
+    hg: float,
+    rd: np.ndarray,
+    rk: np.ndarray,
+    kgeo: np.ndarray | None = None,
+) -> np.ndarray:
+    """``hg D rd + hg K rk`` in O(n) (the local damping and stiffness of the operator)."""
+    arr, par, W, S, X, _ = _factor_fast(model, q, qd, hg, kgeo)
+    out = np.empty(model.ndof)
+    _dk_product(arr, par, float(hg), W, np.ascontiguousarray(rd, dtype=float),
+                np.ascontiguousarray(rk, dtype=float), out)
+    return out
