@@ -16,6 +16,7 @@ setup(
         (f"share/{PACKAGE}/config", glob("config/*.yaml")),
         (f"share/{PACKAGE}/config/studies", glob("config/studies/*.yaml")),
         (f"share/{PACKAGE}/msg_configs", glob("msg_configs/*")),
+        (f"share/{PACKAGE}/launch", glob("launch/*.launch.py")),
     ],
     # Every third-party runtime import of cable_sim/ (the batch tool's are the 'batch' extra; the
     # ROS packages come from the ROS install / the ros-jazzy-* wheels and are declared in
@@ -47,6 +48,7 @@ setup(
             "cable_sim_replay = cable_sim.analysis.replay:main",
             "cable_sim_bench = cable_sim.analysis.bench:main",
             "cable_sim_batch = cable_sim.analysis.batch.cli:main",
+            "cable_sim_urdf = cable_sim.ros.urdf_cli:main",
         ],
     },
 )
