@@ -1,7 +1,8 @@
 """The static-equilibrium solver: its result is a rest state, balances the forces, is stable.
 
 References: (1) the dynamics themselves — started from the static solution with no forcing,
-the scene's own integrator (dense kernel) must keep the line still; (2) an independent
+the scene's own integrator on either kernel (dense reference; fast, the compiled path
+``Simulation`` runs — merged from test_verify_scenes, issue 10) must keep the line still; (2) an independent
 potential-energy gradient (``conftest.RefLine``: weights mapped through centre Jacobians, spring
 gradients on relative angles) and anchor Jacobian — at equilibrium grad V - Q_ext = J^T lambda on
 the free coordinates, with the solver's own lambda; (3) stability — the Hessian of the
@@ -24,6 +25,12 @@ from cable_sim.scene.scenes import available_scenes, load_scene
 NO_FORCING = {"heave_force_source": "none", "wave_source": "none", "initial_state": "static"}
 SCENES = available_scenes()
 ANCHORED = [s for s in SCENES if load_scene(s).params.end_condition == "anchored"]
+
+
+def test_shipped_scenes_are_found() -> None:
+    """The scene list the tests below run over holds the shipped scenes (an empty list would
+    silently skip them)."""
+    assert {"paper_free_fall", "paper_anchored_forced", "mooring_line"} <= set(SCENES), SCENES
 
 
 def reduced_hessian(ref: RefLine, q: np.ndarray, lam: np.ndarray, anchored: bool,
@@ -62,13 +69,14 @@ def residual(ref: RefLine, q: np.ndarray, lam: np.ndarray, anchored: bool, locke
     return float(np.max(np.abs(r[1 if locked else 0:])) / scale)
 
 
+@pytest.mark.parametrize("kernel", ["dense", "fast"])
 @pytest.mark.parametrize("name", SCENES)
-def test_static_state_stays_still(name: str) -> None:
-    """Started at the static solution with forcing off, the scene's integrator and step (dense
-    kernel) keep max |theta_dot| < 1e-6 rad/s and |z_dot| < 1e-6 m/s for 10 s."""
+def test_static_state_stays_still(name: str, kernel: str) -> None:
+    """Started at the static solution with forcing off, the scene's integrator and step (dense or
+    fast kernel) keep max |theta_dot| < 1e-6 rad/s and |z_dot| < 1e-6 m/s for 10 s."""
     scene = load_scene(name, NO_FORCING)
     model = scene.model()
-    system = scene.system(kernel="dense", model=model)
+    system = scene.system(kernel=kernel, model=model)
     integ = scene.integrator(system)
     y0 = scene.initial_state(model)
     n1 = model.ndof
@@ -76,7 +84,7 @@ def test_static_state_stays_still(name: str) -> None:
     w = float(np.max(np.abs(tr.y[:, n1 + 1:])))
     vz = float(np.max(np.abs(tr.y[:, n1])))
     dq = float(np.max(np.abs(tr.y[:, :n1] - y0[:n1])))
-    print(f"{name} (n = {model.n}, {integ.name}, h = {integ.h}): max|theta_dot| = {w:.3g} rad/s, "
+    print(f"{name} (n = {model.n}, {kernel}, {integ.name}, h = {integ.h}): max|theta_dot| = {w:.3g} rad/s, "
           f"max|z_dot| = {vz:.3g} m/s, max|q - q0| = {dq:.3g}")
     assert w < 1e-6 and vz < 1e-6
 
