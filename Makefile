@@ -24,7 +24,7 @@ export PYTHONUNBUFFERED := 1
 
 DEPS_STAMP := $(VENV)/.deps-installed
 PKG_STAMP  := $(VENV)/.pkg-installed
-SOURCES    := setup.py setup.cfg package.xml $(shell find cable_sim config msg_configs -type f \( -name '*.py' -o -name '*.yaml' \))
+SOURCES    := setup.py setup.cfg package.xml $(shell find cable_sim config msg_configs launch -type f \( -name '*.py' -o -name '*.yaml' \))
 
 .PHONY: run test lint bench figures realtime-bench clean venv
 
