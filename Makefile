@@ -44,11 +44,11 @@ run: $(PKG_STAMP)
 	$(VENV)/bin/cable_sim_node --ros-args --params-file config/$(SCENE).yaml $(ARGS)
 
 test: $(PKG_STAMP)
-	$(VENV)/bin/ruff check cable_sim test
+	$(VENV)/bin/ruff check cable_sim test launch
 	$(PY) -m pytest -q test
 
 lint: $(PKG_STAMP)
-	$(VENV)/bin/ruff check cable_sim test
+	$(VENV)/bin/ruff check cable_sim test launch
 
 # Speed against error (optional MuJoCo comparison: installs the bench extra).
 bench: $(PKG_STAMP)
