@@ -7,7 +7,9 @@ Every process a test starts goes through :func:`popen` (or :func:`start_node`, w
   ``(trap '' INT; make test)``): SIG_IGN is inherited across exec, and a Python child that starts
   with SIGINT ignored installs no KeyboardInterrupt handler, so a test's SIGINT would do nothing;
 - on Linux the child gets SIGKILL when the pytest process dies (``PR_SET_PDEATHSIG``), so not
-  even a killed test run leaves it behind;
+  even a killed test run leaves it behind. Linux ties this to the *thread* that started the
+  child: a process started from a helper thread is killed when that thread ends, so such a
+  thread must wait for its process (see test_recorder_clash);
 - it is registered, and :func:`reap_all` kills and reaps whatever is still running: the autouse
   fixtures in ``conftest.py`` call it after every test (for the processes that test started;
   a module-scoped fixture's node lives on for its module and stops in its own ``finally``) and
@@ -27,7 +29,7 @@ import signal
 import subprocess
 import sys
 import time
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping, Sequence
 from pathlib import Path
 
 import rclpy
@@ -120,37 +122,61 @@ def reap_all(since: int = 0) -> list[int]:
     return alive
 
 
-def node_args(scene: str, *overrides: str) -> list[str]:
-    """Command line of the installed node for a shipped scene plus ``-p`` overrides."""
-    args = [node_executable(), "--ros-args", "--params-file", str(CONFIG / f"{scene}.yaml")]
+def node_args(scene: str | os.PathLike[str], *overrides: str, ros_args: Sequence[str] = (),
+              executable: str | os.PathLike[str] | None = None) -> list[str]:
+    """Command line of the node for a scene plus ``-p`` overrides and further ROS arguments.
+
+    Parameters
+    ----------
+    scene : str or PathLike
+        A shipped scene name (``config/<scene>.yaml``) or the path of a parameter file.
+    *overrides : str
+        ``name:=value`` items, each passed as ``-p name:=value``.
+    ros_args : sequence of str
+        Further ROS arguments after the parameters, e.g. ``("-r", "__ns:=/leg1")``.
+    executable : str or PathLike, optional
+        The node's executable (default: the installed console script, :func:`node_executable`),
+        e.g. another virtual environment's ``bin/cable_sim_node``.
+    """
+    is_path = isinstance(scene, os.PathLike) or os.sep in str(scene)
+    params = Path(scene) if is_path else CONFIG / f"{scene}.yaml"
+    args = [str(executable or node_executable()), "--ros-args", "--params-file", str(params)]
     for o in overrides:
         args += ["-p", o]
-    return args
+    return args + list(ros_args)
 
 
-def node_env(domain: int | None = None) -> dict[str, str]:
-    """The test environment with ROS domain ``domain`` (default: the current one), localhost only."""
-    return dict(os.environ,
-                ROS_DOMAIN_ID=str(domain if domain is not None else os.environ["ROS_DOMAIN_ID"]),
+def node_env(domain: int | None = None, base: Mapping[str, str] | None = None) -> dict[str, str]:
+    """``base`` (default: this process's environment) with ROS domain ``domain`` (default: the
+    current one) and discovery on localhost only."""
+    base = os.environ if base is None else base
+    return dict(base, ROS_DOMAIN_ID=str(domain if domain is not None else os.environ["ROS_DOMAIN_ID"]),
                 ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
 
 
-def start_node(scene: str, *overrides: str, domain: int | None = None,
-               cwd: Path | None = None) -> subprocess.Popen:
+def start_node(scene: str | os.PathLike[str], *overrides: str, domain: int | None = None,
+               cwd: Path | None = None, ros_args: Sequence[str] = (),
+               executable: str | os.PathLike[str] | None = None,
+               env: Mapping[str, str] | None = None) -> subprocess.Popen:
     """Start cable_sim_node as a separate process in ROS domain ``domain`` (scene file + -p).
 
+    ``ros_args`` are further ROS arguments (a namespace: ``("-r", "__ns:=/leg1")``);
+    ``executable`` another node executable than the installed console script; ``env`` the
+    environment to start from instead of this process's (the domain and localhost discovery are
+    set on top); ``cwd`` the working directory (relative recording paths land there).
     Output (stdout and stderr) is piped as text. The process is killed and reaped after the test
     at the latest (:func:`reap_all`); use :func:`node_process` to bound it to a block.
     """
-    return popen(node_args(scene, *overrides), cwd=cwd, env=node_env(domain), stdout=subprocess.PIPE,
-                 stderr=subprocess.STDOUT, text=True)
+    return popen(node_args(scene, *overrides, ros_args=ros_args, executable=executable), cwd=cwd,
+                 env=node_env(domain, env), stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
 
 
 @contextlib.contextmanager
-def node_process(scene: str, *overrides: str, domain: int | None = None,
-                 cwd: Path | None = None) -> Iterator[subprocess.Popen]:
-    """:func:`start_node` as a context manager: the node is killed and reaped on leaving the block."""
-    proc = start_node(scene, *overrides, domain=domain, cwd=cwd)
+def node_process(scene: str | os.PathLike[str], *overrides: str, domain: int | None = None,
+                 cwd: Path | None = None, **kwargs) -> Iterator[subprocess.Popen]:
+    """:func:`start_node` (same arguments) as a context manager: the node is killed and reaped on
+    leaving the block."""
+    proc = start_node(scene, *overrides, domain=domain, cwd=cwd, **kwargs)
     try:
         yield proc
     finally:

@@ -1,9 +1,10 @@
 """Packaging (issue 9, item 4): a plain ``pip install`` gives a node that starts and runs.
 
-A fresh virtual environment gets only the ROS 2 Jazzy wheels (the Makefile's ``ROS_PKGS`` pins), then
-``pip install <copy of the repo>`` *with* its dependencies, exactly as a user would. The installed
-``cable_sim_node`` then runs a short scene in fast clock mode, exits by itself with code 0 and leaves
-a non-empty MCAP. A missing ``install_requires`` entry fails here with ``ModuleNotFoundError``.
+A fresh virtual environment gets only the ROS 2 Jazzy wheels (the Makefile's ``ROS_PKGS`` pins),
+then ``pip install <copy of the repo>`` *with* its dependencies, exactly as a user would. The
+installed ``cable_sim_node`` (started by ``ros_util.start_node`` with that venv's executable) then
+runs a short scene in fast clock mode, exits by itself with code 0 and leaves a non-empty MCAP. A
+missing ``install_requires`` entry fails here with ``ModuleNotFoundError``.
 
 Slow (pip resolves and installs ~40 wheels; fast when pip's cache is warm).
 """
@@ -14,20 +15,14 @@ import os
 import random
 import re
 import shutil
-import signal
 import subprocess
 import sys
 from pathlib import Path
 
 import pytest
+from ros_util import kill_and_reap, popen, start_node
 
 REPO = Path(__file__).resolve().parent.parent
-
-
-def _default_signals() -> None:
-    """Child pre-exec: default SIGINT/SIGTERM even when the test runner ignores them."""
-    signal.signal(signal.SIGINT, signal.SIG_DFL)
-    signal.signal(signal.SIGTERM, signal.SIG_DFL)
 
 
 def _ros_pins() -> list[str]:
@@ -56,15 +51,12 @@ def _copy_sources(dst: Path) -> Path:
 
 def _run(cmd: list[str], timeout: float, **kw) -> subprocess.CompletedProcess:
     """Run ``cmd`` to completion (default signals in the child; killed and reaped on timeout)."""
-    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
-                            preexec_fn=_default_signals, **kw)
+    proc = popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, **kw)
     try:
         out, _ = proc.communicate(timeout=timeout)
         return subprocess.CompletedProcess(cmd, proc.returncode, out, None)
     finally:
-        if proc.poll() is None:
-            proc.kill()
-        proc.wait()
+        kill_and_reap(proc)
 
 
 @pytest.mark.timeout(900)
@@ -89,9 +81,14 @@ def test_pip_install_into_fresh_venv_runs_node(tmp_path: Path) -> None:
     env.update(AMENT_PREFIX_PATH=str(venv), RMW_IMPLEMENTATION="rmw_fastrtps_cpp",
                ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST", ROS_DOMAIN_ID=str(random.randint(110, 200)),
                PATH=f"{venv / 'bin'}{os.pathsep}{os.environ.get('PATH', '')}")
-    r = _run([str(venv / "bin" / "cable_sim_node"), "--ros-args", "--params-file", str(scene),
-              "-p", "clock_mode:=fast", "-p", "duration:=1.0", "-p", "exit_at_end:=true",
-              "-p", f"record_path:={bag}"], timeout=300, env=env, cwd=tmp_path)
+    node = start_node(scene, "clock_mode:=fast", "duration:=1.0", "exit_at_end:=true",
+                      f"record_path:={bag}", executable=venv / "bin" / "cable_sim_node", env=env,
+                      domain=int(env["ROS_DOMAIN_ID"]), cwd=tmp_path)
+    try:
+        out, _ = node.communicate(timeout=300)
+    finally:
+        kill_and_reap(node)
+    r = subprocess.CompletedProcess(node.args, node.returncode, out, None)
     assert r.returncode == 0, r.stdout[-4000:]
     assert "ModuleNotFoundError" not in r.stdout
     assert bag.is_file() and bag.stat().st_size > 0, r.stdout[-4000:]

@@ -1,15 +1,15 @@
 """The real-time factor in diagnostics ignores paused wall time (issue 9, item 9).
 
-The default scene runs in real time in a subprocess node (default signal handling, killed and
-reaped in ``finally``): 4 s running, 6 s paused through the ``pause`` service, then running
-again. A node that keeps up must report a real-time factor near 1 (the old figure, simulated
-time over all wall time since the start, would read about 0.4 here), and ``paused_time`` must
-match the pause as timed by this test.
+The default scene runs in real time in a subprocess node (``ros_util.start_node``: default signal
+handling; killed and reaped in ``finally``): 4 s running, 6 s paused through the ``pause`` service,
+then running again. A node that keeps up must report a real-time factor near 1 (the old figure,
+simulated time over all wall time since the start, would read about 0.4 here), and ``paused_time``
+must match the pause as timed by this test.
 """
 
 from __future__ import annotations
 
-import os
+import contextlib
 import signal
 import subprocess
 import time
@@ -17,24 +17,16 @@ import time
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
 from rclpy.executors import SingleThreadedExecutor
-from ros_util import CONFIG, diag_values, init_context, isolate_ros, node_executable, spin_until
+from ros_util import diag_values, init_context, isolate_ros, kill_and_reap, spin_until, start_node
 from std_srvs.srv import SetBool
 
 DOMAIN = isolate_ros()
 PAUSE_S = 6.0
 
 
-def _default_signals() -> None:
-    signal.signal(signal.SIGINT, signal.SIG_DFL)
-    signal.signal(signal.SIGTERM, signal.SIG_DFL)
-
-
 def test_real_time_factor_after_a_pause_is_near_one(tmp_path):
-    cmd = [node_executable(), "--ros-args", "--params-file", str(CONFIG / "mooring_line.yaml"),
-           "-p", "clock_mode:=realtime", "-p", "record:=false", "-p", "diagnostics_rate:=2.0"]
-    env = dict(os.environ, ROS_DOMAIN_ID=str(DOMAIN), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
-    proc = subprocess.Popen(cmd, cwd=tmp_path, env=env, stdout=subprocess.PIPE,
-                            stderr=subprocess.STDOUT, text=True, preexec_fn=_default_signals)
+    proc = start_node("mooring_line", "clock_mode:=realtime", "record:=false", "diagnostics_rate:=2.0",
+                      domain=DOMAIN, cwd=tmp_path)
     ctx = init_context(DOMAIN)
     node = rclpy.create_node("rtf_observer", context=ctx)
     diags: list[tuple[float, dict[str, str]]] = []
@@ -71,15 +63,9 @@ def test_real_time_factor_after_a_pause_is_near_one(tmp_path):
         rclpy.try_shutdown(context=ctx)
         if proc.poll() is None:
             proc.send_signal(signal.SIGINT)
-            try:
+            with contextlib.suppress(subprocess.TimeoutExpired):
                 out, _ = proc.communicate(timeout=20)
-            except subprocess.TimeoutExpired:
-                proc.kill()
-        if proc.poll() is None:
-            proc.kill()
-        proc.wait()
-        if proc.stdout is not None:
-            proc.stdout.close()
+        kill_and_reap(proc)
     v = diags[-1][1]
     print(f"pause {t_resume - t_pause:.2f} s; last diagnostics: {v}; node output tail: {out[-500:]}")
     assert v["paused"] == "False" and not v["failure"], v

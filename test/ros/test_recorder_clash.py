@@ -6,21 +6,21 @@
   which it logs and reports in its diagnostics.
 - :class:`RunRecorder` never opens an existing file for writing (unit level).
 
-The node runs as the installed console script in a subprocess with default SIGINT/SIGTERM
-handling; every process is killed and reaped in ``finally``.
+The node runs as the installed console script in a subprocess (``ros_util.start_node``: default
+SIGINT/SIGTERM handling); every process is killed and reaped in ``finally``.
 """
 
 from __future__ import annotations
 
 import os
 import re
-import signal
 import subprocess
 import threading
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
-from ros_util import CONFIG, isolate_ros, node_executable
+from ros_util import isolate_ros, kill_and_reap, start_node
 from std_msgs.msg import Float64
 
 from cable_sim.ros.recorder import RunRecorder
@@ -29,50 +29,50 @@ DOMAIN = isolate_ros()
 JS_COUNT = 151  # joint states at 50 Hz over t = 0 .. 3 s inclusive (duration 3 s)
 
 
-def _default_signals() -> None:
-    signal.signal(signal.SIGINT, signal.SIG_DFL)
-    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+def _node(*params: str, ros_args: tuple[str, ...] = ()) -> Callable[[Path], subprocess.Popen]:
+    """A starter of the installed node on the default scene (fast, 3 s, exit at the end)."""
+
+    def start(cwd: Path) -> subprocess.Popen:
+        return start_node("mooring_line", "clock_mode:=fast", "duration:=3.0", "exit_at_end:=true",
+                          *params, ros_args=ros_args, domain=DOMAIN, cwd=cwd,
+                          env=dict(os.environ, PYTHONUNBUFFERED="1"))
+    return start
 
 
-def _node_cmd(*ros_args: str) -> list[str]:
-    return [node_executable(), "--ros-args", "--params-file", str(CONFIG / "mooring_line.yaml"),
-            "-p", "clock_mode:=fast", "-p", "duration:=3.0", "-p", "exit_at_end:=true", *ros_args]
+def _run_all(starters: list[Callable[[Path], subprocess.Popen]], cwd: Path,
+             timeout: float = 180.0) -> list[tuple[int, str]]:
+    """Start every node at the same instant, wait for all; kill and reap in any case.
 
+    Each node is started and waited for by its own thread: the thread that starts a process must
+    outlive it (``ros_util.popen`` asks Linux to kill the child when its starting thread ends).
+    """
+    procs: list[subprocess.Popen | None] = [None] * len(starters)
+    outs: list[str] = [""] * len(starters)
+    errors: list[BaseException] = []
+    go = threading.Barrier(len(starters))
 
-def _popen(cmd: list[str], cwd: Path) -> subprocess.Popen:
-    env = dict(os.environ, ROS_DOMAIN_ID=str(DOMAIN), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST",
-               PYTHONUNBUFFERED="1")
-    return subprocess.Popen(cmd, cwd=cwd, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
-                            text=True, preexec_fn=_default_signals)
+    def run(i: int) -> None:
+        go.wait()
+        procs[i] = starters[i](cwd)
+        try:
+            outs[i], _ = procs[i].communicate(timeout=timeout)
+        except BaseException as exc:  # noqa: BLE001 - re-raised in the test's thread
+            errors.append(exc)
+            kill_and_reap(procs[i])
 
-
-def _run_all(cmds: list[list[str]], cwd: Path, timeout: float = 180.0) -> list[tuple[int, str]]:
-    """Start every command at the same instant, wait for all; kill and reap in any case."""
-    procs: list[subprocess.Popen] = []
-    outs: list[str] = [""] * len(cmds)
+    threads = [threading.Thread(target=run, args=(i,)) for i in range(len(starters))]
     try:
-        go = threading.Barrier(len(cmds))
-
-        def start(i: int) -> None:
-            go.wait()
-            procs.append(_popen(cmds[i], cwd))
-
-        threads = [threading.Thread(target=start, args=(i,)) for i in range(len(cmds))]
         for t in threads:
             t.start()
         for t in threads:
             t.join()
-        procs.sort(key=lambda p: cmds.index(p.args))
-        for i, p in enumerate(procs):
-            outs[i], _ = p.communicate(timeout=timeout)
+        if errors:
+            raise errors[0]
         return [(p.returncode, o) for p, o in zip(procs, outs, strict=True)]
     finally:
         for p in procs:
-            if p.poll() is None:
-                p.kill()
-            p.wait()
-            if p.stdout is not None:
-                p.stdout.close()
+            if p is not None:
+                kill_and_reap(p)
 
 
 def _read_rosbags(path: Path) -> tuple[dict[str, int], dict[str, dict[str, str]]]:
@@ -98,7 +98,8 @@ def _logged_path(out: str, cwd: Path) -> Path:
 
 
 def test_two_nodes_started_together_record_to_distinct_complete_files(tmp_path):
-    results = _run_all([_node_cmd("-r", "__ns:=/leg1"), _node_cmd("-r", "__ns:=/leg2")], tmp_path)
+    results = _run_all([_node(ros_args=("-r", "__ns:=/leg1")), _node(ros_args=("-r", "__ns:=/leg2"))],
+                       tmp_path)
     for code, out in results:
         assert code == 0, out
     files = sorted((tmp_path / "runs").glob("*.mcap"))
@@ -119,7 +120,7 @@ def test_node_never_overwrites_an_existing_record_path(tmp_path):
     path = tmp_path / "run.mcap"
     original = b"not a recording: must survive\n" * 100
     path.write_bytes(original)
-    [(code, out)] = _run_all([_node_cmd("-p", f"record_path:={path}")], tmp_path)
+    [(code, out)] = _run_all([_node(f"record_path:={path}")], tmp_path)
     assert code == 0, out
     assert path.read_bytes() == original
     new = tmp_path / "run-1.mcap"
@@ -183,7 +184,7 @@ def test_directory_path_is_still_an_error(tmp_path):
 def test_packed_chunk_indexes_give_the_stock_writers_bytes(tmp_path, monkeypatch):
     """The recorder keeps the mcap writer's per-chunk indexes packed (bounded memory over long
     runs); the file must be byte for byte what the unmodified writer produces."""
-    from cable_sim.ros import recorder
+    from cable_sim.ros.recorder import writer
 
     def record(path: Path) -> RunRecorder:
         rec = RunRecorder(path, {"m": {"k": "v"}}, chunk_size=2000, logger=lambda _m: None)
@@ -194,7 +195,7 @@ def test_packed_chunk_indexes_give_the_stock_writers_bytes(tmp_path, monkeypatch
 
     packed = record(tmp_path / "packed.mcap")
     assert len(packed._writer._Writer__chunk_indices) > 20  # many chunks: the index matters
-    monkeypatch.setattr(recorder, "_pack_chunk_indexes", lambda _w: None)
+    monkeypatch.setattr(writer, "_pack_chunk_indexes", lambda _w: None)
     stock = record(tmp_path / "stock.mcap")
     assert isinstance(stock._writer._Writer__chunk_indices, list)
     assert packed.path.read_bytes() == stock.path.read_bytes()

@@ -36,15 +36,20 @@ from cable_sim.ros.recorder import recover, scan_records  # noqa: E402
 
 
 def _installed_is_current():
+    """Every module of cable_sim/ros (node pieces, recorder package) is installed as in the sources
+    (or this interpreter imports the sources themselves)."""
     import importlib.util
 
-    spec = importlib.util.find_spec("cable_sim.ros.recorder")
-    installed = [p for p in (VENV / "lib").glob("python3*/site-packages/cable_sim/ros/recorder.py")]
-    if not installed:
+    spec = importlib.util.find_spec("cable_sim.ros")
+    source_dir = ROOT / "cable_sim" / "ros"
+    if spec is not None and Path(spec.origin).resolve().parent == source_dir.resolve():
         return True
-    source = ROOT / "cable_sim" / "ros" / "recorder.py"
-    return all(p.read_bytes() == source.read_bytes() for p in installed) or (
-        spec is not None and Path(spec.origin).resolve() == source.resolve())
+    site = list((VENV / "lib").glob("python3*/site-packages/cable_sim/ros"))
+    if not site:
+        return True
+    return all((d / p.relative_to(source_dir)).is_file()
+               and (d / p.relative_to(source_dir)).read_bytes() == p.read_bytes()
+               for d in site for p in source_dir.rglob("*.py"))
 
 
 def launch(scene, record_path, *params):

@@ -1,0 +1,402 @@
+"""RunRecorder: non-blocking, crash-safe recording with a background writer thread.
+
+May import mcap and its sibling modules (definitions, cdr, files, index, metadata).
+"""
+
+from __future__ import annotations
+
+import atexit
+import collections
+import errno
+import os
+import sys
+import threading
+import time
+import weakref
+from pathlib import Path
+from typing import Any
+
+from mcap.writer import CompressionType, Writer
+
+from cable_sim.ros.recorder.cdr import serialize
+from cable_sim.ros.recorder.definitions import (
+    DEFAULT_QOS_YAML,
+    LIBRARY,
+    MESSAGE_ENCODING,
+    PROFILE,
+    SCHEMA_ENCODING,
+    message_definition,
+    type_name_of,
+)
+from cable_sim.ros.recorder.files import _Sink, open_new_file
+from cable_sim.ros.recorder.index import _pack_chunk_indexes
+from cable_sim.ros.recorder.metadata import _str_dict
+
+
+class RecorderError(RuntimeError):
+    """The recording cannot be started (the message names the path and the reason)."""
+
+
+
+_OPEN_RECORDERS: weakref.WeakSet[RunRecorder] = weakref.WeakSet()
+
+
+@atexit.register
+def _close_open_recorders() -> None:  # pragma: no cover - exercised by the signal tests
+    for rec in list(_OPEN_RECORDERS):
+        rec.close()
+
+
+class RunRecorder:
+    """Record ROS messages to an MCAP file without ever blocking or raising into the caller.
+
+    Parameters
+    ----------
+    path : str or Path
+        Requested ``.mcap`` file; missing parent directories are created. An existing file is
+        never overwritten: the recording then goes to ``<stem>-1.mcap``, ``<stem>-2.mcap``, ...
+        (see :func:`open_new_file`), a warning is logged, and :attr:`path` is the file actually
+        written (:attr:`requested_path` the one asked for).
+    metadata : dict of str -> dict of str -> str, optional
+        Metadata records written at the start of the file (e.g. ``"scene"``, ``"run"``).
+    compression : {"zstd", "lz4", "none"}
+        Chunk compression.
+    flush_period : float
+        Seconds between chunk closes + fsync (the most data a SIGKILL can lose). > 0.
+    logger : callable or logger, optional
+        Where problems are reported: an object with ``warning``/``error`` methods (an rclpy or
+        :mod:`logging` logger) or a callable taking one string. Called from the writer thread.
+    max_queue : int
+        Messages that may wait for the writer thread; beyond that new messages are dropped.
+    chunk_size : int
+        Uncompressed bytes after which a chunk is closed before the flush period.
+
+    Raises
+    ------
+    RecorderError
+        When the file cannot be created or written (message names the path and the reason).
+    """
+
+    def __init__(
+        self,
+        path: str | os.PathLike[str],
+        metadata: dict[str, dict[str, str]] | None = None,
+        *,
+        compression: str = "zstd",
+        flush_period: float = 1.0,
+        logger: Any = None,
+        max_queue: int = 100_000,
+        chunk_size: int = 1 << 20,
+    ) -> None:
+        #: The file asked for; :attr:`path` is the one written (they differ after a name clash).
+        self.requested_path = Path(path)
+        self.path = self.requested_path
+        comp = {"zstd": CompressionType.ZSTD, "lz4": CompressionType.LZ4,
+                "none": CompressionType.NONE, "": CompressionType.NONE}
+        if compression not in comp:
+            raise ValueError(f"compression={compression!r}: allowed 'zstd', 'lz4', 'none'")
+        if not (flush_period > 0):
+            raise ValueError(f"flush_period={flush_period!r}: must be > 0 [s]")
+        if max_queue < 1:
+            raise ValueError(f"max_queue={max_queue!r}: must be >= 1")
+        self.flush_period = float(flush_period)
+        #: Writer-thread idle sleep [s]: it drains the queue in batches, so the simulation thread
+        #: hands over the GIL rarely.
+        self._poll = 0.02
+        self.max_queue = int(max_queue)
+        self._logger = logger
+        self._queue: collections.deque[tuple] = collections.deque()
+        self._types: dict[type, str] = {}
+        self._topic_types: dict[str, str] = {}
+        self._channels: dict[str, int] = {}
+        self._schemas: dict[str, int] = {}
+        self._counts: dict[str, int] = collections.defaultdict(int)
+        self._written = 0
+        self._dropped = 0
+        self._errors = 0
+        self._last_error = ""
+        self._failed = False
+        self._closing = False
+        self._closed = False
+        self._close_lock = threading.RLock()
+        self._last_drop_log = 0.0
+        self._open_file()
+        self._start_file(metadata, chunk_size, comp[compression])
+        self._thread = threading.Thread(target=self._run, name=f"recorder:{self.path.name}",
+                                        daemon=True)
+        self._thread.start()
+        _OPEN_RECORDERS.add(self)
+
+    # ---------------------------------------------------------------- caller side
+    def write(
+        self, topic: str, msg: Any, log_time_ns: int, publish_time_ns: int | None = None, *,
+        serialized: bytes | None = None,
+    ) -> None:
+        """Record one message (serialised here, written by the background thread).
+
+        Never blocks, never raises: problems are counted in :attr:`stats` and logged.
+
+        Parameters
+        ----------
+        topic : str
+            Topic name as published (e.g. ``"/joint_states"``).
+        msg : rclpy message
+            The message.
+        log_time_ns, publish_time_ns : int
+            Timestamps [ns]; ``publish_time_ns`` defaults to ``log_time_ns``.
+        serialized : bytes, optional
+            ``serialize(msg)`` when the caller already has it (e.g. it published these bytes
+            with ``publisher.publish(data)``): serialise once, publish and record the same bytes.
+        """
+        if self._closing or self._failed:
+            self._dropped += 1
+            return
+        try:
+            cls = type(msg)
+            tname = self._types.get(cls)
+            if tname is None:
+                tname = self._types[cls] = type_name_of(cls)
+            data = serialize(msg) if serialized is None else serialized
+        except Exception as exc:  # noqa: BLE001 - never raise into the simulation
+            self._error(f"cannot serialise message on {topic}: {exc}")
+            self._dropped += 1
+            return
+        self.write_serialized(topic, tname, data, log_time_ns, publish_time_ns)
+
+    def write_serialized(
+        self, topic: str, type_name: str, data: bytes, log_time_ns: int,
+        publish_time_ns: int | None = None,
+    ) -> None:
+        """Record already-serialised CDR bytes of type ``pkg/msg/Type`` (see :meth:`write`)."""
+        if self._closing or self._failed:
+            self._dropped += 1
+            return
+        if len(self._queue) >= self.max_queue:
+            self._dropped += 1
+            now = time.monotonic()
+            if now - self._last_drop_log > 1.0:
+                self._last_drop_log = now
+                self._log(f"recorder queue full ({self.max_queue} messages): dropping messages "
+                          f"({self._dropped} dropped so far)")
+            return
+        lt = int(log_time_ns)
+        pt = lt if publish_time_ns is None else int(publish_time_ns)
+        self._queue.append(("m", topic, type_name, data, lt, pt))
+
+    def add_metadata(self, name: str, data: dict[str, str]) -> None:
+        """Add a metadata record (written in order with the messages)."""
+        if self._closing or self._failed:
+            return
+        self._queue.append(("d", name, _str_dict(data)))
+
+    @property
+    def stats(self) -> dict[str, Any]:
+        """``messages_written``, ``messages_dropped``, ``bytes_written``, ``errors``,
+        ``last_error``, ``queued``, ``closed``, ``path``."""
+        try:
+            nbytes = self._sink.tell() if not self._closed else self.path.stat().st_size
+        except (OSError, ValueError):
+            nbytes = -1
+        return {
+            "messages_written": self._written,
+            "messages_dropped": self._dropped,
+            "bytes_written": nbytes,
+            "errors": self._errors,
+            "last_error": self._last_error,
+            "queued": len(self._queue),
+            "closed": self._closed,
+            "path": str(self.path),
+        }
+
+    @property
+    def message_counts(self) -> dict[str, int]:
+        """Messages written per topic."""
+        return dict(self._counts)
+
+    def close(self, timeout: float = 30.0) -> None:
+        """Drain the queue, write the summary and close the file. Idempotent and thread-safe.
+
+        Parameters
+        ----------
+        timeout : float
+            Longest wait for the writer thread to drain the queue [s].
+        """
+        with self._close_lock:
+            if self._closed:
+                return
+            self._closing = True
+            if self._thread.is_alive() and threading.current_thread() is not self._thread:
+                self._thread.join(timeout)
+            if self._thread.is_alive():
+                self._error(f"writer thread did not finish within {timeout} s; file may be incomplete")
+            try:
+                if not self._failed:
+                    self._writer.finish()
+                    self._sink.sync()
+            except Exception as exc:  # noqa: BLE001
+                self._io_error(exc)
+            self._sink_close_quietly()
+            self._closed = True
+            _OPEN_RECORDERS.discard(self)
+
+    def __enter__(self) -> RunRecorder:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    # ---------------------------------------------------------------- writer thread
+    def _run(self) -> None:
+        last_flush = time.monotonic()
+        dirty = False
+        q = self._queue
+        while True:
+            if not q:
+                if self._closing:
+                    break
+                now = time.monotonic()
+                if dirty and now - last_flush >= self.flush_period:
+                    self._flush()
+                    dirty = False
+                    last_flush = now
+                time.sleep(self._poll)
+                continue
+            wrote = self._write_item(q.popleft())
+            if wrote is None:
+                continue
+            dirty |= wrote
+            now = time.monotonic()
+            if now - last_flush >= self.flush_period:
+                self._flush()
+                dirty = False
+                last_flush = now
+        # final drain is done; flush what is left so a crash during finish() loses nothing
+        if dirty:
+            self._flush()
+
+    def _open_file(self) -> None:
+        """Create the file (a new one, never an existing one) and its parent directories."""
+        try:
+            self.path.parent.mkdir(parents=True, exist_ok=True)
+            f, self.path = open_new_file(self.requested_path)
+            self._sink = _Sink(f)
+        except OSError as exc:
+            reason = exc.strerror or str(exc)
+            bad = next((p for p in [self.path.parent, *self.path.parent.parents]
+                        if p.exists() and not p.is_dir()), None)
+            if bad is not None:
+                reason = f"{bad} is not a directory"
+            elif self.path.is_dir():
+                reason = "it is a directory"
+            raise RecorderError(f"cannot record to {str(self.path)!r}: {reason}") from exc
+        if self.path != self.requested_path:
+            self._log(f"{self.requested_path} already exists and is never overwritten: "
+                      f"recording to {self.path} instead")
+
+    def _start_file(self, metadata: dict[str, dict[str, str]] | None, chunk_size: int,
+                    compression: CompressionType) -> None:
+        """Write the header and the metadata records, and sync them to disk."""
+        try:
+            self._writer = Writer(self._sink, chunk_size=chunk_size, compression=compression)
+            _pack_chunk_indexes(self._writer)
+            self._writer.start(profile=PROFILE, library=LIBRARY)
+            for name, data in (metadata or {}).items():
+                self._writer.add_metadata(name, _str_dict(data))
+            self._sink.sync()
+        except OSError as exc:
+            self._sink_close_quietly()
+            raise RecorderError(f"cannot record to {str(self.path)!r}: {exc.strerror or exc}") from exc
+
+    def _write_item(self, item: tuple) -> bool | None:
+        """Write one queued item (writer thread): True for a message, False for a metadata record,
+        None when nothing was written (dropped, or an error counted and reported)."""
+        if self._failed:
+            if item[0] == "m":
+                self._dropped += 1
+            return None
+        try:
+            if item[0] != "m":
+                self._writer.add_metadata(item[1], item[2])
+                return False
+            _, topic, tname, data, lt, pt = item
+            cid = self._channels.get(topic)
+            if cid is None:
+                cid = self._register(topic, tname)
+            if cid is None:
+                self._dropped += 1
+                return None
+            self._writer.add_message(cid, lt, data, pt, sequence=self._counts[topic])
+            self._counts[topic] += 1
+            self._written += 1
+            return True
+        except OSError as exc:
+            self._io_error(exc)
+            if item[0] == "m":
+                self._dropped += 1
+            return None
+        except Exception as exc:  # noqa: BLE001 - never let the writer thread die silently
+            self._error(f"cannot write message: {exc!r}")
+            return None
+
+    def _register(self, topic: str, tname: str) -> int | None:
+        sid = self._schemas.get(tname)
+        if sid is None:
+            try:
+                definition = message_definition(tname)
+            except (OSError, ValueError) as exc:
+                self._error(f"no message definition for {tname} (topic {topic}): {exc}")
+                self._channels[topic] = None  # type: ignore[assignment]
+                return None
+            sid = self._schemas[tname] = self._writer.register_schema(
+                name=tname, encoding=SCHEMA_ENCODING, data=definition.encode())
+        cid = self._writer.register_channel(
+            topic=topic, message_encoding=MESSAGE_ENCODING, schema_id=sid,
+            metadata={"offered_qos_profiles": DEFAULT_QOS_YAML})
+        self._channels[topic] = cid
+        self._topic_types[topic] = tname
+        return cid
+
+    def _flush(self) -> None:
+        if self._failed:
+            return
+        try:
+            self._writer.flush()
+            self._sink.sync()
+        except OSError as exc:
+            self._io_error(exc)
+
+    # ---------------------------------------------------------------- errors
+    def _io_error(self, exc: BaseException) -> None:
+        reason = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc)
+        if isinstance(exc, OSError) and exc.errno == errno.ENOSPC:
+            reason = "disk full (ENOSPC)"
+        first = not self._failed
+        self._failed = True
+        self._error(f"I/O error writing {self.path}: {reason}"
+                    + ("; recording stopped, further messages are dropped" if first else ""))
+
+    def _error(self, text: str) -> None:
+        self._errors += 1
+        self._last_error = text
+        self._log(text)
+
+    def _log(self, text: str) -> None:
+        lg = self._logger
+        if lg is None:
+            print(f"[cable_sim.ros.recorder] {text}", file=sys.stderr)
+            return
+        try:
+            if hasattr(lg, "warning"):
+                lg.warning(text)
+            elif hasattr(lg, "warn"):
+                lg.warn(text)
+            else:
+                lg(text)
+        except Exception:  # noqa: BLE001 - a broken logger must not break recording
+            pass
+
+    def _sink_close_quietly(self) -> None:
+        try:
+            self._sink.close()
+        except OSError:
+            pass
