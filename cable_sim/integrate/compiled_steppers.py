@@ -46,10 +46,11 @@ def rk4_run(arr: np.ndarray, par: np.ndarray, h: float, u: np.ndarray, eta: np.n
     :meth:`cable_sim.integrate.explicit.RK4._step`.
     """
     n2 = y.shape[0]
-    k1 = np.empty(n2)
-    k2 = np.empty(n2)
-    k3 = np.empty(n2)
-    k4 = np.empty(n2)
+    kk = np.empty((4, n2))  # the slopes k1..k4
+    k1 = kk[0]
+    k2 = kk[1]
+    k3 = kk[2]
+    k4 = kk[3]
     ys = np.empty(n2)
     yn = np.empty(n2)
     qdd = np.empty(n2 // 2)
