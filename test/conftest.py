@@ -193,29 +193,6 @@ def rk4_step(f, t: float, y: np.ndarray, h: float) -> np.ndarray:
     return y + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
 
 
-@pytest.fixture(scope="session")
-def anchored_scene_run():
-    """The paper's anchored, forced scene run end to end (15.5 s) with its own integrator and
-    step on the dense kernel, one ``Integrator.step`` per sample (shared by test_anchor_drift
-    and test_scenes_run). Returns a dict with scene, model, system, t, y."""
-    from cable_sim.scene.scenes import load_scene
-
-    scene = load_scene("paper_anchored_forced", {"kernel": "dense"})
-    model = scene.model()
-    system = scene.system(model=model)
-    integ = scene.integrator(system)
-    h = integ.h
-    steps = int(round(float(scene.sim["duration"]) / h))
-    y = scene.initial_state(model)
-    ys = np.empty((steps + 1, y.size))
-    ys[0] = y
-    for k in range(steps):
-        y = integ.step(k * h, y, h)
-        ys[k + 1] = y
-    return {"scene": scene, "model": model, "system": system, "integrator": integ,
-            "t": np.arange(steps + 1) * h, "y": ys}
-
-
 @pytest.fixture(autouse=True)
 def _reap_test_processes():
     """After every test (passed, failed or timed out), kill and reap the processes it started
