@@ -6,7 +6,7 @@ frequencies omega_k = (j_{0,k} / 2) sqrt(g' / L), j_{0,k} the zeros of J_0 (scip
 g' = g (1 - rho_w / rho_c) the buoyancy-reduced gravity. The discrete model (no joint stiffness,
 no load, heave locked) is linearised about the vertical rest state: stiffness = Hessian of the
 potential by central differences of ``gravity_vector + elastic_force``, mass = ``mass_matrix``
-(itself checked against sympy in test_sympy_dynamics), frequencies from the generalised
+(itself checked against sympy in test_sympy_lagrange), frequencies from the generalised
 eigenproblem K v = omega^2 M v. The frequencies for n = 10..80 are computed once per module.
 Buoyancy must enter the weight, not the inertia: the same chain without buoyancy follows g.
 """
