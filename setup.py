@@ -35,6 +35,7 @@ setup(
         "bench": ["mujoco"],  # the MuJoCo side-by-side benchmark
         # cable_sim_batch: design studies on a Dask cluster, Parquet results, progress bar
         "batch": ["dask>=2024.1", "distributed>=2024.1", "pyarrow>=14", "tqdm>=4.60"],
+        "foxglove": ["foxglove-sdk>=0.30"],  # live view (foxglove_port); speaks foxglove.sdk.v1
     },
     zip_safe=True,
     maintainer="cable_sim developers",
