@@ -16,7 +16,8 @@ RUN_PKGS := numpy==2.4.6 scipy==1.17.1 pyyaml==6.0.3 mcap==1.6.0 mcap-ros2-suppo
             dask==2026.8.0 distributed==2026.8.0 pyarrow==26.0.1 tqdm==4.70.1 \
             foxglove-sdk==0.30.3
 TEST_PKGS := pytest==9.2.0 pytest-timeout==2.4.0 sympy==1.14.0 rosbags==0.11.9 ruff==0.17.6 \
-             rainflow==3.2.0 yourdfpy==0.0.60 websockets==17.4 protobuf==7.36.2
+             rainflow==3.2.0 yourdfpy==0.0.60 websockets==17.4 protobuf==7.36.2 \
+             moorpy==1.3.0
 
 # The ROS wheels install their libraries and message definitions into the venv prefix.
 export AMENT_PREFIX_PATH := $(abspath $(VENV))
