@@ -1,0 +1,164 @@
+"""Compiled (numba) seabed contact per link and its O(n) generalised force.
+
+Standalone pieces for the O(n) kernel (to be moved into :mod:`cable_sim.core.kernel`): the same
+exact piecewise integration as :func:`cable_sim.core.seabed.link_contact` written for numba on
+plain floats, and an O(n) pass that maps the per-link resultants and first moments to generalised
+forces (Q_0 = sum F_z, Q_theta_j = t_j . (l_j sum_{i>j} F_i + S_j)). Imports numba and numpy only.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba as nb
+import numpy as np
+
+_G1 = 0.5 - 0.5 / math.sqrt(3.0)
+_G2 = 0.5 + 0.5 / math.sqrt(3.0)
+
+
+@nb.njit(cache=True, inline="always")
+def _sat(x: float) -> float:
+    if x < -1.0:
+        return -1.0
+    if x > 1.0:
+        return 1.0
+    return x
+
+
+@nb.njit(cache=True)
+def link_contact_nb(
+    px: float, pz: float, vpx: float, vpz: float, th: float, w: float, length: float,
+    zb: float, k: float, c: float, mu_a: float, mu_t: float, vc: float,
+) -> tuple[float, float, float, float, float, float]:
+    """Seabed force on one link: (fx, fz, mx, mz, potential, spring_power); see
+    :func:`cable_sim.core.seabed.link_contact` for the definitions."""
+    ct = math.cos(th)
+    st = math.sin(th)
+    d0 = zb - pz
+    d1 = ct
+    if d0 <= 0.0 and d0 + d1 * length <= 0.0:
+        return 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+    z0 = vpz
+    z1 = w * st
+    ua = vpx * st - vpz * ct
+    vax = ua * st
+    t0 = vpx - vax
+    t1 = w * ct
+    f0 = k * d0 - c * z0
+    f1 = k * d1 - c * z1
+    friction = mu_a > 0.0 or mu_t > 0.0
+    cuts = np.empty(6)
+    nc = 0
+    cuts[nc] = 0.0
+    nc += 1
+    cuts[nc] = length
+    nc += 1
+    if d1 != 0.0:
+        cuts[nc] = -d0 / d1
+        nc += 1
+    if f1 != 0.0:
+        cuts[nc] = -f0 / f1
+        nc += 1
+    if friction and mu_t > 0.0 and t1 != 0.0:
+        cuts[nc] = (vc - t0) / t1
+        nc += 1
+        cuts[nc] = (-vc - t0) / t1
+        nc += 1
+    # keep the cuts inside [0, l] and sort (insertion sort: at most 6 values)
+    m = 0
+    for j in range(nc):
+        sj = cuts[j]
+        if 0.0 <= sj <= length:
+            cuts[m] = sj
+            m += 1
+    for j in range(1, m):
+        key = cuts[j]
+        r = j - 1
+        while r >= 0 and cuts[r] > key:
+            cuts[r + 1] = cuts[r]
+            r -= 1
+        cuts[r + 1] = key
+    fa = _sat(vax / vc) if friction else 0.0
+    fx = 0.0
+    fz = 0.0
+    mx = 0.0
+    mz = 0.0
+    pot = 0.0
+    sp = 0.0
+    for j in range(m - 1):
+        a = cuts[j]
+        b = cuts[j + 1]
+        h = b - a
+        if h <= 0.0:
+            continue
+        sm = 0.5 * (a + b)
+        if d0 + d1 * sm <= 0.0:
+            continue
+        touching = f0 + f1 * sm > 0.0
+        wq = 0.5 * h
+        for gi in range(2):
+            s = a + (_G1 if gi == 0 else _G2) * h
+            delta = d0 + d1 * s
+            pot += wq * 0.5 * k * delta * delta
+            sp += wq * k * delta * (z0 + z1 * s)
+            if touching:
+                fn = f0 + f1 * s
+                fxs = 0.0
+                if friction:
+                    fxs = -fn * (mu_a * fa + mu_t * _sat((t0 + t1 * s) / vc))
+                fz += wq * fn
+                mz += wq * s * fn
+                fx += wq * fxs
+                mx += wq * s * fxs
+    return fx, fz, mx, mz, pot, sp
+
+
+@nb.njit(cache=True)
+def seabed_links_nb(
+    l: np.ndarray, zb: float, kb: np.ndarray, cb: np.ndarray, mua: np.ndarray, mut: np.ndarray,
+    vc: float, q: np.ndarray, qd: np.ndarray, F: np.ndarray, S: np.ndarray,
+) -> tuple[float, float]:
+    """Per-link resultants ``F`` (n, 2) and first moments ``S`` (n, 2) (written in place), in one
+    O(n) pass down the line; returns (bed elastic energy, spring power)."""
+    n = l.shape[0]
+    px = 0.0
+    pz = q[0]
+    vx = 0.0
+    vz = qd[0]
+    pot = 0.0
+    sp = 0.0
+    for i in range(n):
+        th = q[i + 1]
+        w = qd[i + 1]
+        fx, fz, mx, mz, e, pw = link_contact_nb(px, pz, vx, vz, th, w, l[i], zb, kb[i], cb[i],
+                                                mua[i], mut[i], vc)
+        F[i, 0] = fx
+        F[i, 1] = fz
+        S[i, 0] = mx
+        S[i, 1] = mz
+        pot += e
+        sp += pw
+        c = math.cos(th)
+        s = math.sin(th)
+        px += l[i] * s
+        pz -= l[i] * c
+        vx += l[i] * c * w
+        vz += l[i] * s * w
+    return pot, sp
+
+
+@nb.njit(cache=True)
+def generalised_from_links_nb(
+    l: np.ndarray, q: np.ndarray, F: np.ndarray, S: np.ndarray, Q: np.ndarray
+) -> None:
+    """Q += J^T of per-link forces given as resultants F and first moments S (O(n), from the tip)."""
+    n = l.shape[0]
+    bx = 0.0
+    bz = 0.0
+    for i in range(n - 1, -1, -1):
+        th = q[i + 1]
+        Q[i + 1] += math.cos(th) * (l[i] * bx + S[i, 0]) + math.sin(th) * (l[i] * bz + S[i, 1])
+        bx += F[i, 0]
+        bz += F[i, 1]
+    Q[0] += bz
