@@ -105,7 +105,7 @@ def oscillation_packed(y: np.ndarray, chk: np.ndarray, info: np.ndarray) -> int:
     return STATUS_OK
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, inline="always")
 def _anchor_checks(arr: np.ndarray, par: np.ndarray, y: np.ndarray, chk: np.ndarray,
                    info: np.ndarray) -> int:
     """Anchored end: project (finite after), drift; a nearly taut line: slack, Schur condition."""
@@ -133,7 +133,7 @@ def _anchor_checks(arr: np.ndarray, par: np.ndarray, y: np.ndarray, chk: np.ndar
     return STATUS_OK
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, inline="always")
 def _energy_checks(arr: np.ndarray, par: np.ndarray, y: np.ndarray, chk: np.ndarray,
                    info: np.ndarray) -> int:
     """Kinetic-energy lower bound against ``chk[5]``; energy increase over a step against ``chk[7]``."""

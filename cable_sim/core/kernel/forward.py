@@ -76,7 +76,7 @@ from cable_sim.core.model import CableModel
 # ---- the steps of the forward dynamics ---------------------------------------------------------
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, inline="always")
 def applied_link_forces(
     l: np.ndarray, mw: np.ndarray, gl2: np.ndarray, cn: np.ndarray, ct: np.ndarray,
     current: float, drag: int, g: float, qd: np.ndarray, cth: np.ndarray, sth: np.ndarray,
@@ -179,12 +179,13 @@ def _fd_kernel(
     endx = np.zeros(nrhs)
     endz = np.zeros(nrhs)
     sol = np.zeros((nrhs, n + 1))
-    for k in range(nrhs):
-        f0 = q0 if k == 0 else 0.0
-        zdd = 0.0 if locked else (f0 - bz[k]) / (mp + azz)
-        # no joint armature here (the beta argument, dd, is not read)
-        endx[k], endz[k] = outward_sweep(l, cth, sth, qd, k == 0, dd, False, rr[k], hx, hz, dd,
-                                         zdd, sol[k])
+    # no joint armature here (the beta argument, dd, is not read); velocity terms in rhs 0 only
+    zdd = 0.0 if locked else (q0 - bz[0]) / (mp + azz)
+    endx[0], endz[0] = outward_sweep(l, cth, sth, qd, True, dd, False, rr[0], hx, hz, dd, zdd, sol[0])
+    for k in range(1, nrhs):
+        zdd = 0.0 if locked else (0.0 - bz[k]) / (mp + azz)
+        endx[k], endz[k] = outward_sweep(l, cth, sth, qd, False, dd, False, rr[k], hx, hz, dd, zdd,
+                                         sol[k])
     qdd[:] = sol[0]
     lam[0] = 0.0
     lam[1] = 0.0

@@ -94,7 +94,13 @@ def link_drag(
 # ---- joints and load ------------------------------------------------------------------------
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, inline="always")
+def joint_torque(k: float, c: float, th: float, th_prev: float, w: float, w_prev: float) -> float:
+    """Spring/damper torque of one joint on its relative angle and rate."""
+    return k * (th - th_prev) + c * (w - w_prev)
+
+
+@nb.njit(cache=True, inline="always")
 def joint_torques(jk: np.ndarray, jc: np.ndarray, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
     """``tau_1..tau_n`` of the joint springs/dampers on relative angles (joint 1 relative to the
     vertical), and ``tau_(n+1) = 0``."""
@@ -103,14 +109,14 @@ def joint_torques(jk: np.ndarray, jc: np.ndarray, q: np.ndarray, qd: np.ndarray)
     th_prev = 0.0
     w_prev = 0.0
     for i in range(n):
-        tau[i] = jk[i] * (q[i + 1] - th_prev) + jc[i] * (qd[i + 1] - w_prev)
+        tau[i] = joint_torque(jk[i], jc[i], q[i + 1], th_prev, qd[i + 1], w_prev)
         th_prev = q[i + 1]
         w_prev = qd[i + 1]
     tau[n] = 0.0
     return tau
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, inline="always")
 def woodbury_load(m: np.ndarray, mc: float, constrained: bool, locked: bool) -> bool:
     """Whether the terminal load enters by Woodbury rather than as ``A_(n+1) = m_c I``.
 
@@ -198,7 +204,7 @@ def unit_force_step(
     return rk, bx, bz
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, inline="always")
 def inward_sweep(
     l: np.ndarray, m: np.ndarray, cth: np.ndarray, sth: np.ndarray, qd: np.ndarray,
     tau: np.ndarray, cpl: np.ndarray, fgx: np.ndarray, fgz: np.ndarray, bias: bool,

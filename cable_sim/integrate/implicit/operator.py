@@ -27,7 +27,7 @@ from cable_sim.core.kernel.sweeps import (
     add_columns,
     centre_velocity,
     from_link_frame,
-    joint_torques,
+    joint_torque,
     link_frame,
     link_frame_velocity,
     link_trig,
@@ -54,7 +54,7 @@ _MODE_NONE, _MODE_CONSTRAINED, _MODE_HEAVY = 0.0, 1.0, 2.0
 # --------------------------------------------------------------------------------------------
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, inline="always")
 def _link_terms(arr: np.ndarray, par: np.ndarray, q: np.ndarray, qd: np.ndarray, hg: float,
                 kgeo: np.ndarray, W: np.ndarray) -> None:
     """Per-link terms of ``M~`` at (q, qd) into W: cos/sin, joint armature ``beta``, extra
@@ -93,7 +93,7 @@ def _link_terms(arr: np.ndarray, par: np.ndarray, q: np.ndarray, qd: np.ndarray,
         W[_W_ROT, i] = W[_W_DROT, i] + hg * W[_W_KGEO, i]
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, inline="always")
 def _op_inward(arr: np.ndarray, W: np.ndarray, mload: float) -> float:
     """The 3x3 articulated inertias ``[[c, w^T], [w, A]]``, tip to platform; fills ``D_i`` and
     ``u_i`` (world frame) in W and returns the platform's ``A_zz`` (see :func:`_op_factor`)."""
@@ -263,10 +263,15 @@ def _dk_product(arr: np.ndarray, par: np.ndarray, hg: float, W: np.ndarray, rd: 
     kg = W[_W_KGEO]
     out[0] = hg * (par[6] * rd[0] + par[5] * rk[0])
     # joint torques tau_i on relative angles (springs on rk, dampers on rd); Q_i = tau_i - tau_{i+1}
-    tau = joint_torques(arr[3], arr[4], rk, rd)
+    jk = arr[3]
+    jc = arr[4]
+    t_i = hg * joint_torque(jk[0], jc[0], rk[1], 0.0, rd[1], 0.0)
     for i in range(n):
-        out[i + 1] = hg * tau[i] - hg * tau[i + 1]
-        out[i + 1] += drot[i] * rd[i + 1] + kg[i] * rk[i + 1]
+        t_next = 0.0
+        if i + 1 < n:
+            t_next = hg * joint_torque(jk[i + 1], jc[i + 1], rk[i + 2], rk[i + 1], rd[i + 2], rd[i + 1])
+        out[i + 1] = t_i - t_next + (drot[i] * rd[i + 1] + kg[i] * rk[i + 1])
+        t_i = t_next
     if int(par[1]) == 2:
         _morison_product(l, W, rd, out)
 

@@ -26,7 +26,7 @@ from cable_sim.integrate.implicit.operator import (
 )
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, inline="always")
 def _factor_at(arr: np.ndarray, par: np.ndarray, geometric: bool, hg: float, q: np.ndarray,
                v: np.ndarray, a1: np.ndarray, lam: np.ndarray, kgeo: np.ndarray, W: np.ndarray,
                S: np.ndarray, X: np.ndarray) -> bool:
@@ -38,7 +38,7 @@ def _factor_at(arr: np.ndarray, par: np.ndarray, geometric: bool, hg: float, q: 
     return _op_factor(arr, par, q, v, hg, kgeo, W, S, X)
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, inline="always")
 def _stage(arr: np.ndarray, par: np.ndarray, hg: float, W: np.ndarray, S: np.ndarray,
            X: np.ndarray, rd: np.ndarray, rk: np.ndarray, rhs: np.ndarray, x: np.ndarray,
            kv: np.ndarray) -> None:
