@@ -39,6 +39,7 @@ $(DEPS_STAMP): Makefile
 	touch $@
 
 $(PKG_STAMP): $(DEPS_STAMP) $(SOURCES)
+	rm -rf build  # setuptools would copy modules removed from the tree back into site-packages
 	$(PY) -m pip install -q --no-deps --force-reinstall .
 	touch $@
 
