@@ -96,3 +96,7 @@ class NodeDiagnostics:
         st.name = f"{self.node.get_name()}: cable simulation"
         st.level, st.message = self.status()
         self.node.outputs.publish("diagnostics", msg, stamp)
+        view = getattr(self.node, "foxglove", None)
+        if view is not None:  # the live Foxglove view's plottable diagnostics (handed over, not awaited)
+            level = st.level[0] if isinstance(st.level, bytes) else int(st.level)
+            view.publish_diagnostics(v, self.node.sim.t, level, st.message)

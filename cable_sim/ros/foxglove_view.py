@@ -319,3 +319,38 @@ class FoxgloveView:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
+
+
+def start_foxglove_view(node: Any) -> FoxgloveView | None:
+    """The node's live view when its ``foxglove_port`` parameter is > 0, fed by its outputs.
+
+    The view listens on 127.0.0.1:``foxglove_port``, takes every publication of the node's outputs
+    (:attr:`cable_sim.ros.publishers.NodeOutputs.listeners`, rate-limited to ``foxglove_rate``) and
+    the diagnostics (:class:`cable_sim.ros.diagnostics.NodeDiagnostics`); the node closes it.
+
+    Parameters
+    ----------
+    node : cable_sim.ros.node.CableSimNode
+        The node (its parameters, ``sim``, ``frame_id`` and ``outputs``).
+
+    Raises
+    ------
+    ValueError
+        Without foxglove-sdk, or when the port cannot be served (message names the parameter).
+    """
+    port = int(node.get_parameter("foxglove_port").value)
+    if port == 0:
+        return None
+    rate = float(node.get_parameter("foxglove_rate").value)
+    try:
+        view = FoxgloveView(node.sim.model, port=port, rate=rate, frame_id=node.frame_id,
+                            name=node.get_fully_qualified_name())
+    except FoxgloveUnavailable as exc:
+        raise ValueError(str(exc)) from exc
+    except (OSError, RuntimeError) as exc:
+        raise ValueError(f"foxglove_port={port}: cannot serve the live view on 127.0.0.1:{port} "
+                         f"({exc}); choose a free port in 1..65535 or 0 (off)") from exc
+    node.outputs.listeners.append(lambda out, stamp: view.publish(out, stamp * 1e-9))
+    node.get_logger().info(f"live Foxglove view on ws://127.0.0.1:{view.port} (topics "
+                           f"{', '.join(view.topics.values())}; {rate:g} Hz)")
+    return view

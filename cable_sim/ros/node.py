@@ -31,6 +31,7 @@ from cable_sim.core.params import ParameterError
 from cable_sim.ros.clock_modes import PACING, control_steps
 from cable_sim.ros.command_line import ignored_cli_parameters
 from cable_sim.ros.diagnostics import NodeDiagnostics
+from cable_sim.ros.foxglove_view import start_foxglove_view
 from cable_sim.ros.parameters import (
     CLOCK_MODES,
     check_node_parameters,
@@ -74,6 +75,7 @@ class CableSimNode(Node):
         self.run = RunControl(self)
         self.diagnostics = NodeDiagnostics(self)
         self.recorder, self.record_error = open_recorder(self)
+        self.foxglove = start_foxglove_view(self)
         self.clock = RunClock(time.monotonic())
 
         if self.clock_mode != "lockstep":
@@ -151,7 +153,9 @@ class CableSimNode(Node):
         self.get_logger().info(line)
 
     def close(self) -> None:
-        """Close the recording (idempotent)."""
+        """Close the recording and the live view (idempotent)."""
+        if self.foxglove is not None:
+            self.foxglove.close()
         if self.recorder is not None:
             self.recorder.close()
 

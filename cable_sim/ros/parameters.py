@@ -58,7 +58,8 @@ class NodeParam:
 
 _RO = {"read_only": True}
 #: Node settings in declaration order. Those with a range may change at run time (validated by
-#: :func:`check_node_parameters`); the read-only ones are fixed at start.
+#: :func:`check_node_parameters`); the read-only ones are fixed at start (a range given for one
+#: is checked by rclpy when it is declared; an integer default gets an integer range).
 NODE_PARAMETERS: dict[str, NodeParam] = {
     "joint_state_rate": NodeParam(50.0, "JointState publication rate [Hz] (sim time)", (0.1, 1000.0)),
     "marker_rate": NodeParam(10.0, "MarkerArray publication rate [Hz] (sim time)", (0.1, 1000.0)),
@@ -79,6 +80,11 @@ NODE_PARAMETERS: dict[str, NodeParam] = {
     "frame_id": NodeParam("world", "frame of all stamped outputs (x-z plane, z up)", **_RO),
     "exit_at_end": NodeParam(False, "with duration > 0: stop, close the recording and exit 0 at the end",
                              **_RO),
+    "foxglove_port": NodeParam(0, "live Foxglove view: serve the Foxglove WebSocket protocol on this TCP "
+                               "port of 127.0.0.1 (0: off; 8765 is Foxglove's usual port; needs "
+                               "foxglove-sdk)", (0, 65535), read_only=True),
+    "foxglove_rate": NodeParam(10.0, "live Foxglove view: scene and tension update rate [Hz] (wall time)",
+                               (0.1, 100.0), read_only=True),
 }
 STRUCTURAL = set(CableParams.field_names()) | set(SIM_DEFAULTS) | set(INPUT_DEFAULTS)
 
@@ -87,7 +93,9 @@ def node_descriptor(name: str) -> ParameterDescriptor:
     """Descriptor of a node setting: description, float range, read-only flag."""
     spec = NODE_PARAMETERS[name]
     d = ParameterDescriptor(description=spec.description, read_only=spec.read_only)
-    if spec.range is not None:
+    if spec.range is not None and isinstance(spec.default, int) and not isinstance(spec.default, bool):
+        d.integer_range = [IntegerRange(from_value=int(spec.range[0]), to_value=int(spec.range[1]), step=1)]
+    elif spec.range is not None:
         d.floating_point_range = [FloatingPointRange(from_value=spec.range[0], to_value=spec.range[1])]
     return d
 
@@ -167,7 +175,7 @@ def check_node_parameters(params: list[Parameter]) -> SetParametersResult:
     """Accept a run-time change only if every changed node setting is a finite float in its range."""
     for p in params:
         spec = NODE_PARAMETERS.get(p.name)
-        if spec is None or spec.range is None:
+        if spec is None or spec.range is None or spec.read_only:  # read-only: fixed at start
             continue
         v, (lo, hi) = p.value, spec.range
         if not isinstance(v, float) or not (lo <= v <= hi) or not math.isfinite(v):
