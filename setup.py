@@ -13,7 +13,7 @@ setup(
     data_files=[
         ("share/ament_index/resource_index/packages", [f"resource/{PACKAGE}"]),
         (f"share/{PACKAGE}", ["package.xml"]),
-        (f"share/{PACKAGE}/config", glob("config/*.yaml")),
+        (f"share/{PACKAGE}/config", glob("config/*.yaml") + glob("config/*.json")),
         (f"share/{PACKAGE}/config/studies", glob("config/studies/*.yaml")),
         (f"share/{PACKAGE}/msg_configs", glob("msg_configs/*")),
         (f"share/{PACKAGE}/launch", glob("launch/*.launch.py")),
