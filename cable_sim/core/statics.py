@@ -143,11 +143,11 @@ def _hessian(model: CableModel, q: np.ndarray, lam: np.ndarray) -> np.ndarray:
     H[idx[:-1], idx[1:]] = -k[1:]
     H[idx[1:], idx[:-1]] = -k[1:]
     if model.seabed:
-        H += _seabed_hessian(model, q)
+        H += seabed_hessian(model, q)
     return H
 
 
-def _seabed_hessian(model: CableModel, q: np.ndarray) -> np.ndarray:
+def seabed_hessian(model: CableModel, q: np.ndarray) -> np.ndarray:
     """Hessian of the bed's elastic energy sum int 1/2 k delta^2 ds (delta = z_b - z(s) > 0):
     int k J_z^T J_z ds - int k delta d^2 z / dq^2 ds over each link's penetrating interval, with
     J_z(s) = J_p,z + s sin(theta_i) e_i (z_m and the links above: l_j sin theta_j)."""

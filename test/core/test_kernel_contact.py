@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from cable_sim.core import dynamics
-from cable_sim.core.kernel_contact import generalised_from_links_nb, seabed_links_nb
+from cable_sim.core.kernel.contact import generalised_from_links_nb, seabed_links_nb
 from cable_sim.core.model import CableModel
 from cable_sim.core.params import CableParams
 

@@ -148,7 +148,8 @@ def schur_packed(arr: np.ndarray, par: np.ndarray, q: np.ndarray) -> np.ndarray:
     bz = np.zeros(3)
     bx[1] = -1.0
     bz[2] = -1.0
-    azz = inward_sweep(l, arr[1], cth, sth, q, dd, dd, dd, dd, False, 0.0, bx, bz, dd, hx, hz, rr)
+    azz = inward_sweep(l, arr[12], arr[13], cth, sth, q, dd, dd, dd, dd, False, 0.0, bx, bz, dd, hx,
+                       hz, rr)
     out = np.empty((2, 2))
     sol = np.empty(n + 1)
     for k in range(2):

@@ -150,7 +150,8 @@ def _energy_checks(arr: np.ndarray, par: np.ndarray, y: np.ndarray, chk: np.ndar
             return STATUS_UNSTABLE
     if chk.shape[0] > 7 and np.isfinite(chk[6]):
         t_kin, v_pot = _energy_kernel(arr[0], arr[1], arr[2], arr[3], par[2], par[3], par[4],
-                                      par[5], par[9], y[:n1], y[n1:])
+                                      par[5], par[9], y[:n1], y[n1:], par[17] != 0.0, par[18],
+                                      arr[8])
         e_new = t_kin + v_pot
         if e_new - chk[6] > chk[7]:
             info[2] = e_new - chk[6]

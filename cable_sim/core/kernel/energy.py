@@ -10,6 +10,7 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
+from cable_sim.core.kernel.contact import seabed_links_nb
 from cable_sim.core.kernel.packing import pack, vec
 from cable_sim.core.kernel.sweeps import centre_velocity, next_pin_velocity
 from cable_sim.core.model import CableModel
@@ -17,8 +18,10 @@ from cable_sim.core.model import CableModel
 
 @nb.njit(cache=True)
 def _energy_kernel(l: np.ndarray, m: np.ndarray, mw: np.ndarray, jk: np.ndarray, mc: float, mcw: float,
-                   mp: float, hk: float, g: float, q: np.ndarray, qd: np.ndarray) -> tuple[float, float]:
-    """Kinetic and potential energy in O(n) from link-centre velocities and heights."""
+                   mp: float, hk: float, g: float, q: np.ndarray, qd: np.ndarray, seabed: bool,
+                   zb: float, kb: np.ndarray) -> tuple[float, float]:
+    """Kinetic and potential energy in O(n) from link-centre velocities and heights; with a
+    seabed, V includes its elastic energy sum int 1/2 k_b delta^2 ds."""
     n = l.shape[0]
     vx = 0.0
     vz = qd[0]
@@ -43,6 +46,12 @@ def _energy_kernel(l: np.ndarray, m: np.ndarray, mw: np.ndarray, jk: np.ndarray,
         vx, vz = next_pin_velocity(vx, vz, li, c, s, w)
     t_kin += 0.5 * mc * (vx * vx + vz * vz)
     v_grav += mcw * pz
+    if seabed:
+        F = np.empty((n, 2))
+        S = np.empty((n, 2))
+        zero = np.zeros(n)
+        v_bed, _ = seabed_links_nb(l, zb, kb, zero, zero, zero, 1.0, q, np.zeros(q.shape[0]), F, S)
+        v_spr += v_bed
     return t_kin, g * v_grav + v_spr
 
 
@@ -68,6 +77,6 @@ def energy(model: CableModel, q: np.ndarray, qd: np.ndarray) -> tuple[float, flo
     p = pack(model)
     t_kin, v_pot = _energy_kernel(
         p[0], p[1], p[2], p[3], p[10], p[11], p[12], p[13], p[17],
-        vec(q, k, "q"), vec(qd, k, "qd"),
+        vec(q, k, "q"), vec(qd, k, "qd"), p[23], p[24], p[25],
     )
     return float(t_kin), float(v_pot)

@@ -57,6 +57,7 @@ import numpy as np
 
 from cable_sim.core.dynamics import NO_INPUT, Inputs
 from cable_sim.core.kernel.anchor import constraint_rhs
+from cable_sim.core.kernel.contact import seabed_links_nb
 from cable_sim.core.kernel.packing import pack, vec
 from cable_sim.core.kernel.sweeps import (
     add_columns,
@@ -104,6 +105,27 @@ def applied_link_forces(
     return fgx, fgz, cpl
 
 
+@nb.njit(cache=True, inline="always")
+def add_seabed_loads(
+    l: np.ndarray, zb: float, kb: np.ndarray, cb: np.ndarray, mua: np.ndarray, mut: np.ndarray,
+    vc: float, q: np.ndarray, qd: np.ndarray, cth: np.ndarray, sth: np.ndarray, fgx: np.ndarray,
+    fgz: np.ndarray, cpl: np.ndarray,
+) -> None:
+    """Seabed contact on each link (exact over its length, :mod:`cable_sim.core.kernel.contact`)
+    as a force at the centre plus a couple: resultant F and first moment S about the upper pin
+    give ``fg += F`` and ``cpl += t . (S - l/2 F)`` (so that the link's own generalised force is
+    t . S, like the per-link drag force)."""
+    n = l.shape[0]
+    F = np.empty((n, 2))
+    S = np.empty((n, 2))
+    seabed_links_nb(l, zb, kb, cb, mua, mut, vc, q, qd, F, S)
+    for i in range(n):
+        fgx[i] += F[i, 0]
+        fgz[i] += F[i, 1]
+        hl = 0.5 * l[i]
+        cpl[i] += cth[i] * (S[i, 0] - hl * F[i, 0]) + sth[i] * (S[i, 1] - hl * F[i, 1])
+
+
 @nb.njit(cache=True)
 def heavy_load_correction(mc: float, endx: np.ndarray, endz: np.ndarray, sol: np.ndarray,
                           qdd: np.ndarray) -> None:
@@ -143,8 +165,10 @@ def _fd_kernel(
     l: np.ndarray, m: np.ndarray, mw: np.ndarray, jk: np.ndarray, jc: np.ndarray,
     gl2: np.ndarray, cn: np.ndarray, ct: np.ndarray, current: float, drag: int, mc: float,
     mcw: float, mp: float, hk: float, hc: float, locked: bool, wave: bool, g: float,
-    constrained: bool, ax: float, az: float, balpha: float, bbeta: float, u: float, eta: float,
-    q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, lam: np.ndarray,
+    constrained: bool, ax: float, az: float, balpha: float, bbeta: float, seabed: bool, zb: float,
+    kb: np.ndarray, cb: np.ndarray, mua: np.ndarray, mut: np.ndarray, vc: float, mn: np.ndarray,
+    me: np.ndarray, u: float, eta: float, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray,
+    lam: np.ndarray,
 ) -> bool:
     """Articulated-body forward dynamics; writes ``qdd`` and ``lam``.
 
@@ -159,6 +183,8 @@ def _fd_kernel(
     link_trig(q, cth, sth)
     tau = joint_torques(jk, jc, q, qd)
     fgx, fgz, cpl = applied_link_forces(l, mw, gl2, cn, ct, current, drag, g, qd, cth, sth)
+    if seabed:
+        add_seabed_loads(l, zb, kb, cb, mua, mut, vc, q, qd, cth, sth, fgx, fgz, cpl)
     heavy = woodbury_load(m, mc, constrained, locked)
     nrhs = 3 if (constrained or heavy) else 1
     dd = np.empty(n)
@@ -171,7 +197,7 @@ def _fd_kernel(
     if nrhs == 3:
         bx[1] = -1.0  # unit external force +x on p_n: the link exerts -F on "the end"
         bz[2] = -1.0
-    azz = inward_sweep(l, m, cth, sth, qd, tau, cpl, fgx, fgz, True, 0.0 if heavy else mc,
+    azz = inward_sweep(l, mn, me, cth, sth, qd, tau, cpl, fgx, fgz, True, 0.0 if heavy else mc,
                        bx, bz, dd, hx, hz, rr)
     q0 = u - hk * q[0] - hc * qd[0]
     if wave:
@@ -205,6 +231,7 @@ def fd_packed(arr: np.ndarray, par: np.ndarray, u: float, eta: float, q: np.ndar
         arr[0], arr[1], arr[2], arr[3], arr[4], arr[5], arr[6], arr[7],
         par[0], int(par[1]), par[2], par[3], par[4], par[5], par[6], par[7] != 0.0,
         par[8] != 0.0, par[9], par[10] != 0.0, par[11], par[12], par[13], par[14],
+        par[17] != 0.0, par[18], arr[8], arr[9], arr[10], arr[11], par[19], arr[12], arr[13],
         u, eta, q, qd, qdd, lam,
     )
 

@@ -1,7 +1,11 @@
 """Internal joint forces in O(n) by the Newton recursion from the line's end (compiled).
 
+With a seabed, each link's contact resultant is subtracted like its drag; with added mass, the
+link's added-mass force -l A a_c (A = m_an t t^T + m_at e e^T, a_c the centre acceleration) is.
+
 Core layer, compiled kernel: imports numba, numpy, :mod:`cable_sim.core.kernel.sweeps`,
-:mod:`cable_sim.core.kernel.packing` and :mod:`cable_sim.core.model`.
+:mod:`cable_sim.core.kernel.contact`, :mod:`cable_sim.core.kernel.packing` and
+:mod:`cable_sim.core.model`.
 """
 
 from __future__ import annotations
@@ -9,6 +13,7 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
+from cable_sim.core.kernel.contact import seabed_links_nb
 from cable_sim.core.kernel.packing import pack, vec
 from cable_sim.core.kernel.sweeps import centre_velocity, link_drag, next_pin_velocity
 from cable_sim.core.model import CableModel
@@ -18,7 +23,8 @@ from cable_sim.core.model import CableModel
 def _joint_forces_kernel(
     l: np.ndarray, m: np.ndarray, mw: np.ndarray, cn: np.ndarray, ct: np.ndarray, current: float,
     drag: int, mc: float, mcw: float, g: float, constrained: bool, lamx: float, lamz: float,
-    q: np.ndarray, qd: np.ndarray, qdd: np.ndarray,
+    q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, seabed: bool, zb: float, kb: np.ndarray,
+    cb: np.ndarray, mua: np.ndarray, mut: np.ndarray, vc: float, mn: np.ndarray, me: np.ndarray,
 ) -> np.ndarray:
     """Joint forces by the Newton recursion from the end (see ``dynamics.joint_forces``)."""
     n = l.shape[0]
@@ -55,6 +61,23 @@ def _joint_forces_kernel(
     else:
         out[n, 0] = mc * ax
         out[n, 1] = mc * (az + qdd[0]) + mcw * g
+    if seabed:
+        F = np.empty((n, 2))
+        S = np.empty((n, 2))
+        seabed_links_nb(l, zb, kb, cb, mua, mut, vc, q, qd, F, S)
+        for i in range(n):
+            dfx[i] += F[i, 0]
+            dfz[i] += F[i, 1]
+    for i in range(n):
+        man = mn[i] - m[i]
+        mat = me[i] - m[i]
+        if man != 0.0 or mat != 0.0:  # added-mass force -l A a_c on the link
+            c = np.cos(q[i + 1])
+            s = np.sin(q[i + 1])
+            at = c * acx[i] + s * acz[i]
+            ae = s * acx[i] - c * acz[i]
+            dfx[i] -= man * at * c + mat * ae * s
+            dfz[i] -= man * at * s - mat * ae * c
     fx = out[n, 0]
     fz = out[n, 1]
     for i in range(n - 1, -1, -1):
@@ -71,7 +94,8 @@ def joint_forces_packed(arr: np.ndarray, par: np.ndarray, lamx: float, lamz: flo
     """:func:`_joint_forces_kernel` on the packed model."""
     return _joint_forces_kernel(
         arr[0], arr[1], arr[2], arr[6], arr[7], par[0], int(par[1]), par[2], par[3], par[9],
-        par[10] != 0.0, lamx, lamz, q, qd, qdd,
+        par[10] != 0.0, lamx, lamz, q, qd, qdd, par[17] != 0.0, par[18], arr[8], arr[9], arr[10],
+        arr[11], par[19], arr[12], arr[13],
     )
 
 
@@ -108,5 +132,5 @@ def joint_forces(
                                                           float(anchor_force[1]))
     return _joint_forces_kernel(
         p[0], p[1], p[2], p[6], p[7], p[8], p[9], p[10], p[11], p[17], p[18], lamx, lamz,
-        vec(q, k, "q"), vec(qd, k, "qd"), vec(qdd, k, "qdd"),
+        vec(q, k, "q"), vec(qd, k, "qd"), vec(qdd, k, "qdd"), *p[23:32],
     )

@@ -1,6 +1,6 @@
 """The model as plain arrays for the compiled kernels (numba cannot take the dataclass).
 
-Two forms, each cached per model object: :func:`pack`, a tuple of the 23 arrays and scalars
+Two forms, each cached per model object: :func:`pack`, a tuple of the 32 arrays and scalars
 :func:`cable_sim.core.kernel.forward._fd_kernel` takes, and :func:`pack_arrays`, the same as two
 arrays (``arr`` per link, ``par`` scalars) for the compiled steppers, so that calling one costs
 a handful of argument conversions instead of ~30.
@@ -17,7 +17,7 @@ import numpy as np
 from cable_sim.core.model import CableModel
 
 #: Rows of the per-link array returned by :func:`pack_arrays`.
-ARR_ROWS = 8
+ARR_ROWS = 14
 
 _PACK_CACHE: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 _ARRAYS_CACHE: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
@@ -65,6 +65,18 @@ def pack(model: CableModel) -> tuple:
         float(model.anchor[1]),
         float(model.baumgarte_alpha),
         float(model.baumgarte_beta),
+        # round-2 terms (MODEL.md): seabed on, its z, per-link k_b, c_b, mu_a, mu_t, v_c; the
+        # link masses seen along the normal and along the axis (m + m_an l, m + m_at l: equal to
+        # m without added mass)
+        bool(model.seabed),
+        float(model.seabed_z) if model.seabed else 0.0,
+        _arr(model.seabed_k),
+        _arr(model.seabed_c),
+        _arr(model.friction_axial),
+        _arr(model.friction_transverse),
+        float(model.friction_speed),
+        _arr(model.mass + model.added_mass_normal * model.length),
+        _arr(model.mass + model.added_mass_axial * model.length),
     )
     try:
         _PACK_CACHE[model] = fd
@@ -78,21 +90,24 @@ def pack_arrays(model: CableModel) -> tuple[np.ndarray, np.ndarray]:
 
     Returns
     -------
-    arr : ndarray (8, n)
-        Rows: l, m, m~, k, c, gamma l^2/4, Morison c_n, Morison c_t.
-    par : ndarray (17,)
+    arr : ndarray (14, n)
+        Rows: l, m, m~, k, c, gamma l^2/4, Morison c_n, Morison c_t, seabed k_b, c_b, mu_a,
+        mu_t, normal mass m + m_an l, axial mass m + m_at l.
+    par : ndarray (20,)
         current, drag code, m_c, m~_c, M, k_m, c_m, heave_locked, wave_coupling, g,
-        constrained, anchor x, anchor z, Baumgarte alpha, beta, end code, total length.
+        constrained, anchor x, anchor z, Baumgarte alpha, beta, end code, total length,
+        seabed on, seabed z, friction speed v_c.
     """
     try:
         return _ARRAYS_CACHE[model]
     except (KeyError, TypeError):
         pass
     p = pack(model)
-    arr = np.ascontiguousarray(np.stack(p[:8]), dtype=np.float64)
+    arr = np.ascontiguousarray(np.stack(p[:8] + p[25:29] + p[30:32]), dtype=np.float64)
     par = np.array(
         [p[8], p[9], p[10], p[11], p[12], p[13], p[14], float(p[15]), float(p[16]), p[17],
-         float(p[18]), p[19], p[20], p[21], p[22], float(model.end), float(np.sum(model.length))],
+         float(p[18]), p[19], p[20], p[21], p[22], float(model.end), float(np.sum(model.length)),
+         float(p[23]), p[24], p[29]],
         dtype=np.float64,
     )
     try:

@@ -159,15 +159,16 @@ def to_world(a_tt: float, a_te: float, a_ee: float, c: float, s: float) -> tuple
 
 @nb.njit(cache=True, inline="always")
 def articulated_inertia(
-    mi: float, x: float, y: float, z: float, xp: float, c: float, s: float
+    mn: float, me: float, x: float, y: float, z: float, xp: float, c: float, s: float
 ) -> tuple[float, float, float]:
-    """New articulated inertia A' = m I + A - h h^T / D of a link, world-frame (xx, xz, zz).
+    """New articulated inertia A' = mn t t^T + me e e^T + A - h h^T / D of a link, world-frame
+    (xx, xz, zz); mn = me = m without added mass (then A' = m I + A - h h^T / D).
 
     Assembled in the link frame (t, e) to avoid cancellation in the t direction, then rotated.
     """
-    a_tt = mi * (x / 3.0 + mi / 12.0) / xp
-    a_te = -y * (mi / 6.0) / xp
-    a_ee = mi + z - y * y / xp
+    a_tt = mn * (x / 3.0 + mn / 12.0) / xp
+    a_te = -y * (mn / 6.0) / xp
+    a_ee = me + z - y * y / xp
     return to_world(a_tt, a_te, a_ee, c, s)
 
 
@@ -206,7 +207,7 @@ def unit_force_step(
 
 @nb.njit(cache=True, inline="always")
 def inward_sweep(
-    l: np.ndarray, m: np.ndarray, cth: np.ndarray, sth: np.ndarray, qd: np.ndarray,
+    l: np.ndarray, mn: np.ndarray, me: np.ndarray, cth: np.ndarray, sth: np.ndarray, qd: np.ndarray,
     tau: np.ndarray, cpl: np.ndarray, fgx: np.ndarray, fgz: np.ndarray, bias: bool,
     mload: float, bx: np.ndarray, bz: np.ndarray, dd: np.ndarray, hx: np.ndarray,
     hz: np.ndarray, rr: np.ndarray,
@@ -218,6 +219,13 @@ def inward_sweep(
     ``bias``: joint torques ``tau``, couples ``cpl``, centre forces ``fgx, fgz``, velocities);
     rows 1.. are unit end forces. Fills ``dd`` (D_i), ``hx, hz`` (h_i) and ``rr`` (R_i per
     right-hand side); returns ``A_1,zz`` (the platform's articulated mass beyond its own).
+
+    Link masses: ``mn`` as seen along the link normal t and ``me`` along its axis e (the link
+    mass plus the Morison added mass m_an l, m_at l: a per-link anisotropic inertia in the link
+    frame, MODEL.md "Round 2 terms"; both are the link mass m without added mass). With the
+    added mass A = m_an t t^T + m_at e e^T per length, the link's rotation sees mn (t.A.e = 0),
+    so D = l^2 (mn/3 + t.A_child.t), h = l A_child t + (mn l/2) t, and the centripetal term
+    -w^2 (me l/2) e.
     """
     n = l.shape[0]
     nrhs = bx.shape[0]
@@ -228,7 +236,7 @@ def inward_sweep(
         c = cth[i]
         s = sth[i]
         li = l[i]
-        mi = m[i]
+        mi = mn[i]
         x, y, z = link_frame(axx, axz, azz, c, s)
         xp = x + mi / 3.0
         d = li * li * xp
@@ -241,12 +249,12 @@ def inward_sweep(
             ra = -tau[i] + tau[i + 1] + cpl[i] + 0.5 * li * (c * fgx[i] + s * fgz[i])
             w2 = qd[i + 1] * qd[i + 1]
             rr[0, i], bx[0], bz[0] = bias_step(
-                bx[0], bz[0], ra, fgx[i], fgz[i], li, mi, c, s, w2, y,
+                bx[0], bz[0], ra, fgx[i], fgz[i], li, me[i], c, s, w2, y,
                 axx * s - axz * c, axz * s - azz * c, h_x, h_z, d,
             )
         for k in range(1, nrhs):
             rr[k, i], bx[k], bz[k] = unit_force_step(bx[k], bz[k], li, c, s, h_x, h_z, d)
-        axx, axz, azz = articulated_inertia(mi, x, y, z, xp, c, s)
+        axx, axz, azz = articulated_inertia(mi, me[i], x, y, z, xp, c, s)
     return azz
 
 

@@ -1,7 +1,11 @@
 """Dense ``M``, ``D``, ``K`` and the dense solve of the implicit operator: the O(n^3) reference the
 O(n) operator is tested against, and the schemes' ``dense`` kernel fallback.
 
-Integrate layer: imports numpy and :mod:`cable_sim.core.dynamics`, :mod:`cable_sim.core.model`.
+With a seabed, ``K`` includes the contact stiffness (:func:`cable_sim.core.statics.seabed_hessian`);
+with added mass, ``M`` includes ``M_a``.
+
+Integrate layer: imports numpy and :mod:`cable_sim.core.dynamics`, :mod:`cable_sim.core.model`
+(and :mod:`cable_sim.core.statics` with a seabed).
 """
 
 from __future__ import annotations
@@ -23,6 +27,8 @@ def dense_operator(
     n1 = model.ndof
     n = model.n
     M = dynamics.mass_matrix(model, q)
+    if model.added_mass:
+        M = M + dynamics.added_mass_terms(model, q, qd)[0]
     eye = np.eye(n1)
     D = np.column_stack([dynamics.damping_force(model, eye[j]) for j in range(n1)])
     K = np.column_stack([dynamics.elastic_force(model, eye[j]) for j in range(n1)])
@@ -49,6 +55,10 @@ def dense_operator(
             Jc[0, i + 1] = 0.5 * l[i] * c[i]
             Jc[1, i + 1] = 0.5 * l[i] * s[i]
             D += Jc.T @ G @ Jc
+    if model.seabed:  # the bed's contact stiffness (Hessian of its elastic energy)
+        from cable_sim.core.statics import seabed_hessian
+
+        K += seabed_hessian(model, q)
     return M, D, K
 
 

@@ -3,7 +3,11 @@ product.
 
 ``M~`` is the mass matrix of a modified chain (see :mod:`cable_sim.integrate.implicit`): joint
 armature ``beta_i = hg c_i + hg^2 k_i``, extra platform mass, extra link rotational inertia and
-anisotropic extra centre masses. The articulated inertia seen at a pin is then 3x3 instead of
+anisotropic extra centre masses. With Morison added mass (MODEL.md "Round 2 terms") ``M`` includes
+it: the link mass seen along the normal is m + m_an l (rotation and normal motion) and along the
+axis m + m_at l (packed rows 12 and 13; both m without added mass). The seabed contact's
+stiffness is not in this O(n) operator (see the README, "Seabed and added mass").
+The articulated inertia seen at a pin is then 3x3 instead of
 the 2x2 of the forward dynamics; the inward recursion (:func:`_op_inward`) is specific to it,
 everything else -- link kinematics, drag velocities, the link-frame transforms, the outward
 acceleration sweep, the Woodbury choice, the 2x2 end correction -- is the shared implementation
@@ -99,7 +103,8 @@ def _op_inward(arr: np.ndarray, W: np.ndarray, mload: float) -> float:
     ``u_i`` (world frame) in W and returns the platform's ``A_zz`` (see :func:`_op_factor`)."""
     n = arr.shape[1]
     l = arr[0]
-    m = arr[1]
+    m = arr[12]  # link mass seen along the normal (m + m_an l with added mass)
+    ma = arr[13]  # and along the axis (m + m_at l)
     cth = W[_W_COS]
     sth = W[_W_SIN]
     beta = W[_W_BETA]
@@ -119,7 +124,7 @@ def _op_inward(arr: np.ndarray, W: np.ndarray, mload: float) -> float:
         p_tt, r_te, s_ee = link_frame(axx, axz, azz, c, s)
         wt, we = link_frame_velocity(wx, wz, c, s)
         mt = mi + W[_W_GT, i]
-        me = mi + W[_W_GE, i]
+        me = ma[i] + W[_W_GE, i]
         bi = beta[i]
         rp = (rot[i] + bi) * il2
         dn = mi / 12.0 + rp + 0.25 * mt + cc * il2 + 2.0 * wt / li + p_tt  # D / l^2

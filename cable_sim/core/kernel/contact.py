@@ -1,9 +1,12 @@
 """Compiled (numba) seabed contact per link and its O(n) generalised force.
 
-Standalone pieces for the O(n) kernel (to be moved into :mod:`cable_sim.core.kernel`): the same
-exact piecewise integration as :func:`cable_sim.core.seabed.link_contact` written for numba on
-plain floats, and an O(n) pass that maps the per-link resultants and first moments to generalised
-forces (Q_0 = sum F_z, Q_theta_j = t_j . (l_j sum_{i>j} F_i + S_j)). Imports numba and numpy only.
+The same exact piecewise integration as :func:`cable_sim.core.seabed.link_contact` written for
+numba on plain floats (:func:`link_contact_nb`), one O(n) pass down the line for every link's
+resultant and first moment (:func:`seabed_links_nb`, used by the forward-dynamics, joint-force
+and energy kernels), and an O(n) pass that maps them to generalised forces
+(Q_0 = sum F_z, Q_theta_j = t_j . (l_j sum_{i>j} F_i + S_j)).
+
+Core layer, compiled kernel: imports numba and numpy only.
 """
 
 from __future__ import annotations
