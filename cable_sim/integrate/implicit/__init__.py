@@ -44,14 +44,22 @@ Schemes (:data:`INTEGRATORS`):
   error constant; ``1 + 1/sqrt(2)`` is the original's choice), both L-stable for the part in
   ``W``; the explicit remainder (velocity-product couplings) is integrated like Heun's method.
 
-Both have a compiled fast path (system kernel ``"fast"``: the whole step, its checks and the
+* :class:`~cable_sim.integrate.implicit.ros34.Ros34PW2` (``ros34pw2``): the four-stage
+  Rosenbrock W-method ROS34PW2 (Rang & Angermann 2005), order 3 for any ``W`` (so with the local
+  ``K``, ``D``), L-stable, stiffly accurate; four force evaluations, one factorisation and four
+  O(n) solves per step. :class:`~cable_sim.integrate.implicit.ros34.Ros34PW2Adaptive`
+  (``ros34pw2_adaptive``, ``rtol``/``atol`` on the joint positions and velocities): the same with
+  its embedded order-2 estimate and a PI step controller, stepping adaptively between fixed
+  output times.
+
+All have a compiled fast path (system kernel ``"fast"``: the whole step, its checks and the
 projection run in numba; :meth:`advance` runs many steps in one call) and a dense fallback
 (kernel ``"dense"``: the same scheme with the dense matrices ``M``, ``D``, ``K``, used as the
 reference the O(n) solve is tested against).
 
 Modules: ``operator`` (the O(n) factor, solve and product of ``M + hg D + hg^2 K``), ``run``
-(the compiled stepping loop), ``schemes`` (the integrator classes), ``dense`` (the dense
-reference operator and solve).
+(the compiled stepping loop), ``schemes`` (the integrator classes), ``ros34`` (ROS34PW2, fixed
+and adaptive, with its own compiled loops), ``dense`` (the dense reference operator and solve).
 
 Integrate layer: this ``__init__`` re-exports its modules' public API; they import numba,
 numpy, :mod:`cable_sim.core` and :mod:`cable_sim.integrate.base`.
@@ -62,12 +70,15 @@ from __future__ import annotations
 from cable_sim.integrate.implicit import dense
 from cable_sim.integrate.implicit.dense import dense_operator
 from cable_sim.integrate.implicit.operator import geometric_stiffness, operator_product, operator_solve
+from cable_sim.integrate.implicit.ros34 import Ros34PW2, Ros34PW2Adaptive
 from cable_sim.integrate.implicit.schemes import INTEGRATORS, LinearlyImplicitEuler, Rosenbrock2
 
 __all__ = [
     "INTEGRATORS",
     "LinearlyImplicitEuler",
     "Rosenbrock2",
+    "Ros34PW2",
+    "Ros34PW2Adaptive",
     "operator_solve",
     "operator_product",
     "dense_operator",

@@ -3,7 +3,8 @@ their compiled fast path (:func:`cable_sim.integrate.implicit.run._implicit_run`
 fallback (:mod:`cable_sim.integrate.implicit.dense`); :data:`INTEGRATORS` by name.
 
 Integrate layer: imports numpy, :mod:`cable_sim.core` (dynamics, system),
-:mod:`cable_sim.integrate.base` and the sibling modules ``dense``, ``operator``, ``run``.
+:mod:`cable_sim.integrate.base` and the sibling modules ``dense``, ``operator``, ``run``,
+``ros34`` (ROS34PW2, registered here).
 """
 
 from __future__ import annotations
@@ -15,6 +16,7 @@ from cable_sim.core.system import CableSystem
 from cable_sim.integrate.base import Integrator
 from cable_sim.integrate.implicit.dense import _dense_solve, dense_operator
 from cable_sim.integrate.implicit.operator import geometric_stiffness
+from cable_sim.integrate.implicit.ros34 import Ros34PW2, Ros34PW2Adaptive
 from cable_sim.integrate.implicit.run import _implicit_run
 
 
@@ -159,4 +161,6 @@ class Rosenbrock2(_LinearlyImplicit):
 INTEGRATORS: dict[str, type[Integrator]] = {
     "implicit_euler": LinearlyImplicitEuler,
     "rosenbrock2": Rosenbrock2,
+    "ros34pw2": Ros34PW2,
+    "ros34pw2_adaptive": Ros34PW2Adaptive,
 }

@@ -1,0 +1,629 @@
+"""ROS34PW2: a four-stage, order-3, L-stable Rosenbrock W-method on the O(n) operator, fixed
+step and adaptive (embedded order-2 estimate, PI step controller).
+
+Method: Rang & Angermann, "New Rosenbrock W-methods of order 3 for partial differential
+algebraic equations of index 1", BIT Numer. Math. 45 (2005) 761-787, method ROS34PW2
+(coefficients as tabulated there and in PETSc's ``TSROSWRA34PW2``, ``src/ts/impls/rosw/rosw.c``).
+It is a *W-method*: order 3 for any approximation ``T`` of the Jacobian in
+``W = I - h gamma T`` -- here the local damping/stiffness ``D``, ``K`` of
+:mod:`cable_sim.integrate.implicit.operator` -- L-stable (``R(inf) = 0``) and stiffly accurate;
+the embedded solution (weights ``b_hat``) is of order 2.
+
+Classical form (``k_i`` the stage increments, ``T`` the approximate Jacobian)::
+
+    (I - h gamma T) k_i = h f(t + alpha_i h, y + sum_j alpha_ij k_j) + h T sum_j gamma_ij k_j
+    y' = y + sum_i b_i k_i,      y_hat' = y + sum_i b_hat_i k_i
+
+It is run in the transformed variables ``s_i = sum_j gamma_ij k_j / h`` (Hairer & Wanner,
+Solving ODEs II, IV.7), which need no product with ``T``::
+
+    (I - h gamma T) s_i = gamma (f(Y_i) + sum_j c_ij s_j),   Y_i = y + h sum_j a_ij s_j
+    y' = y + h sum_i m_i s_i,       a = alpha Gamma^-1, c = diag(1/gamma) - Gamma^-1, m = b Gamma^-1
+
+For the cable, ``y = (q, v)``, ``f = (v, a(q, v))``, ``T = [[0, I], [-M^-1 K, -M^-1 D]]``, and
+a stage with right-hand side ``(rq, rv)`` is (as in :class:`~.schemes.Rosenbrock2`)
+``sv = rv - M~^-1 (hg D rv + hg K (rq + hg rv))``, ``sq = rq + hg sv`` with
+``M~ = M + hg D + hg^2 K``, ``hg = gamma h``: one factorisation and four O(n) solves and four
+force evaluations per step.
+
+Error norm of the adaptive scheme (:class:`Ros34PW2Adaptive`): the embedded difference,
+mapped to the joints (linearised: ``dp_j = dz e_z + sum_{i<j} l_i (cos th_i, sin th_i) dth_i``,
+likewise the joint velocities), in the max norm over joints with scale
+``atol + rtol |p_j - p_0|`` (positions, m) and ``atol + rtol |v_j|`` (velocities, m/s): the
+tolerance is on what the user reads, the joint positions.
+
+Integrate layer: imports numba, numpy, :mod:`cable_sim.core` (dynamics, kernel, system),
+:mod:`cable_sim.integrate.base`, :mod:`cable_sim.integrate.checks`,
+:mod:`cable_sim.integrate.errors` and the sibling modules ``dense`` and ``operator``.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba as nb
+import numpy as np
+
+from cable_sim.core import dynamics
+from cable_sim.core import kernel as fast
+from cable_sim.core.kernel.checks import STATUS_OK, STATUS_SINGULAR, check_packed
+from cable_sim.core.kernel.forward import fd_packed
+from cable_sim.core.kernel.joint_forces import joint_forces_packed
+from cable_sim.core.model import CableModel
+from cable_sim.core.params import CableParams
+from cable_sim.core.system import CableSystem
+from cable_sim.integrate.base import _WARMED, Integrator
+from cable_sim.integrate.checks import disarm
+from cable_sim.integrate.errors import ENERGY_JUMP, OSCILLATION, IntegrationError
+from cable_sim.integrate.implicit.dense import _dense_solve, dense_operator
+from cable_sim.integrate.implicit.operator import (
+    _NS,
+    _NW,
+    _dk_product,
+    _kgeo_from_forces,
+    _op_factor,
+    _op_solve,
+)
+from cable_sim.integrate.implicit.operator import geometric_stiffness as _geometric_stiffness
+
+# --------------------------------------------------------------------------------------------
+# Coefficients (Rang & Angermann 2005, ROS34PW2; classical form)
+# --------------------------------------------------------------------------------------------
+
+#: Diagonal gamma of ROS34PW2.
+GAMMA = 4.3586652150845900e-01
+#: alpha_ij (strictly lower triangular).
+ALPHA = np.array([
+    [0.0, 0.0, 0.0, 0.0],
+    [8.7173304301691801e-01, 0.0, 0.0, 0.0],
+    [8.4457060015369423e-01, -1.1299064236484185e-01, 0.0, 0.0],
+    [0.0, 0.0, 1.0, 0.0],
+])
+#: gamma_ij (lower triangular, diagonal GAMMA).
+GAMMA_IJ = np.array([
+    [GAMMA, 0.0, 0.0, 0.0],
+    [-8.7173304301691801e-01, GAMMA, 0.0, 0.0],
+    [-9.0338057013044082e-01, 5.4180672388095326e-02, GAMMA, 0.0],
+    [2.4212380706095346e-01, -1.2232505839045147e+00, 5.4526025533510214e-01, GAMMA],
+])
+#: Weights of the order-3 solution.
+B = np.array([2.4212380706095346e-01, -1.2232505839045147e+00, 1.5452602553351020e+00, GAMMA])
+#: Weights of the embedded order-2 solution.
+B_HAT = np.array([3.7810903145819369e-01, -9.6042292212423178e-02, 0.5, 2.1793326075422950e-01])
+#: Stage times alpha_i (fractions of h) = row sums of ALPHA.
+C_TIMES = ALPHA.sum(axis=1)
+
+_GINV = np.linalg.inv(GAMMA_IJ)
+#: Transformed coefficients (see the module docstring).
+A_T = ALPHA @ _GINV
+C_T = np.diag(np.diag(_GINV)) - _GINV  # diag(1/gamma) - Gamma^-1: strictly lower
+M_T = B @ _GINV
+E_T = (B - B_HAT) @ _GINV  # error weights: y' - y_hat' = h sum_i E_T[i] s_i
+_STAGES = 4
+
+#: Status of the adaptive kernel when the step size fell below its floor (not a check status).
+STATUS_STEP_UNDERFLOW = 100
+
+#: Default input-sampling spacing of the adaptive scheme [s] (cubic interpolation in between).
+INPUT_SPACING = 0.02
+
+
+# --------------------------------------------------------------------------------------------
+# Compiled step
+# --------------------------------------------------------------------------------------------
+
+
+@nb.njit(cache=True)
+def _ros_step(arr: np.ndarray, par: np.ndarray, geometric: bool, h: float, us: np.ndarray,
+              es: np.ndarray, y: np.ndarray, yn: np.ndarray, err: np.ndarray, W: np.ndarray,
+              S: np.ndarray, X: np.ndarray, kgeo: np.ndarray, sq: np.ndarray, sv: np.ndarray,
+              wk: np.ndarray, at: np.ndarray, ct: np.ndarray, mt: np.ndarray, et: np.ndarray,
+              gamma: float) -> bool:
+    """One ROS34PW2 step of h from y into ``yn`` and the embedded difference into ``err``
+    (both ``2(n+1)``); ``us[i], es[i]`` are the inputs at stage i's time. Returns False when a
+    force evaluation or the factorisation is singular. ``wk`` is a (8, n+1) workspace."""
+    n1 = y.shape[0] // 2
+    hg = gamma * h
+    Yq = wk[0]
+    Yv = wk[1]
+    acc = wk[2]
+    rd = wk[3]
+    rk = wk[4]
+    rhs = wk[5]
+    x = wk[6]
+    lam = np.empty(2)
+    ns = at.shape[0]
+    for i in range(ns):
+        for j in range(n1):
+            yq = y[j]
+            yv = y[n1 + j]
+            for m in range(i):
+                yq += h * at[i, m] * sq[m, j]
+                yv += h * at[i, m] * sv[m, j]
+            Yq[j] = yq
+            Yv[j] = yv
+        if not fd_packed(arr, par, us[i], es[i], Yq, Yv, acc, lam):
+            return False
+        if i == 0:
+            if geometric:
+                F = joint_forces_packed(arr, par, lam[0], lam[1], Yq, Yv, acc)
+                _kgeo_from_forces(arr, Yq, F, kgeo)
+            if not _op_factor(arr, par, Yq, Yv, hg, kgeo, W, S, X):
+                return False
+        for j in range(n1):
+            rq = Yv[j]
+            rv = acc[j]
+            for m in range(i):
+                rq += ct[i, m] * sq[m, j]
+                rv += ct[i, m] * sv[m, j]
+            rq *= gamma
+            rv *= gamma
+            rd[j] = rv
+            rk[j] = rq + hg * rv
+            sq[i, j] = rq  # completed below
+        _dk_product(arr, par, hg, W, rd, rk, rhs)
+        _op_solve(arr, par, W, S, X, rhs, x)
+        for j in range(n1):
+            sv[i, j] = rd[j] - x[j]
+            sq[i, j] += hg * sv[i, j]
+    for j in range(n1):
+        dq = 0.0
+        dv = 0.0
+        eq = 0.0
+        ev = 0.0
+        for i in range(ns):
+            dq += mt[i] * sq[i, j]
+            dv += mt[i] * sv[i, j]
+            eq += et[i] * sq[i, j]
+            ev += et[i] * sv[i, j]
+        yn[j] = y[j] + h * dq
+        yn[n1 + j] = y[n1 + j] + h * dv
+        err[j] = h * eq
+        err[n1 + j] = h * ev
+    return True
+
+
+@nb.njit(cache=True)
+def _ros_fixed_run(arr: np.ndarray, par: np.ndarray, geometric: bool, h: float, u: np.ndarray,
+                   eta: np.ndarray, y: np.ndarray, chk: np.ndarray, info: np.ndarray,
+                   at: np.ndarray, ct: np.ndarray, mt: np.ndarray, et: np.ndarray,
+                   gamma: float) -> int:
+    """``u.shape[0]`` checked fixed steps (``u[k, i]``: input at stage i of step k), in place
+    on y; as :func:`cable_sim.integrate.implicit.run._implicit_run`."""
+    n = arr.shape[1]
+    n1 = n + 1
+    ns = at.shape[0]
+    W = np.zeros((_NW, n))
+    S = np.zeros(_NS)
+    X = np.zeros((2, n1))
+    kgeo = np.zeros(n)
+    sq = np.zeros((ns, n1))
+    sv = np.zeros((ns, n1))
+    wk = np.zeros((8, n1))
+    yn = np.empty(2 * n1)
+    err = np.empty(2 * n1)
+    for k in range(u.shape[0]):
+        info[1] = k
+        ok = _ros_step(arr, par, geometric, h, u[k], eta[k], y, yn, err, W, S, X, kgeo, sq, sv,
+                       wk, at, ct, mt, et, gamma)
+        info[0] += ns
+        if not ok:
+            return STATUS_SINGULAR
+        status = check_packed(arr, par, yn, chk, info)
+        if status != STATUS_OK:
+            return status
+        y[:] = yn
+    return STATUS_OK
+
+
+@nb.njit(cache=True, inline="always")
+def _interp(t: float, t0: float, dt: float, vals: np.ndarray) -> float:
+    """Cubic Lagrange interpolation of samples ``vals`` on the grid ``t0 + k dt``."""
+    nn = vals.shape[0]
+    if nn == 1:
+        return vals[0]
+    k = int(math.floor((t - t0) / dt)) - 1
+    k = max(0, min(k, nn - 4)) if nn >= 4 else 0
+    m = min(4, nn)
+    s = 0.0
+    for a in range(m):
+        ta = t0 + (k + a) * dt
+        w = 1.0
+        for b in range(m):
+            if b != a:
+                w *= (t - (t0 + (k + b) * dt)) / (ta - (t0 + (k + b) * dt))
+        s += w * vals[k + a]
+    return s
+
+
+@nb.njit(cache=True)
+def err_norm(arr: np.ndarray, y: np.ndarray, yn: np.ndarray, err: np.ndarray, atol: float,
+             rtol: float) -> float:
+    """Scaled max norm of the embedded difference ``err`` mapped to the joints (linearised
+    positions and velocities relative to the fairlead, see the module docstring)."""
+    n1 = y.shape[0] // 2
+    l = arr[0]
+    px = 0.0
+    pz = 0.0
+    vx = 0.0
+    vz = 0.0
+    dpx = 0.0
+    dvx = 0.0
+    dz0 = err[0]
+    dvz0 = err[n1]
+    sc = atol + rtol * max(abs(yn[n1]), abs(y[n1]))
+    out = max(abs(dvz0) / sc, abs(dz0) / atol)
+    dpz = 0.0
+    dvz = 0.0
+    for i in range(n1 - 1):
+        th = yn[1 + i]
+        w = yn[n1 + 1 + i]
+        c = math.cos(th)
+        s = math.sin(th)
+        li = l[i]
+        dth = err[1 + i]
+        dw = err[n1 + 1 + i]
+        px += li * s
+        pz -= li * c
+        vx += li * c * w
+        vz += li * s * w
+        dpx += li * c * dth
+        dpz += li * s * dth
+        dvx += li * (c * dw - s * w * dth)
+        dvz += li * (s * dw + c * w * dth)
+        sp = atol + rtol * math.sqrt(px * px + pz * pz)
+        sv_ = atol + rtol * math.sqrt(vx * vx + (vz + yn[n1]) ** 2)
+        e = max(math.sqrt(dpx * dpx + (dpz + dz0) ** 2) / sp,
+                math.sqrt(dvx * dvx + (dvz + dvz0) ** 2) / sv_)
+        if e > out:
+            out = e
+    return out
+
+
+@nb.njit(cache=True)
+def _ros_adaptive_run(arr: np.ndarray, par: np.ndarray, geometric: bool, t0: float, t1: float,
+                      tin0: float, tdt: float, uin: np.ndarray, ein: np.ndarray, y: np.ndarray,
+                      chk: np.ndarray, info: np.ndarray, ctl: np.ndarray, at: np.ndarray,
+                      ct: np.ndarray, ctimes: np.ndarray, mt: np.ndarray, et: np.ndarray,
+                      gamma: float) -> int:
+    """Adaptive steps from t0 to exactly t1, in place on y.
+
+    Inputs: samples ``uin, ein`` on the grid ``tin0 + k tdt`` (cubic interpolation).
+    ``ctl = [atol, rtol, safety, fac_min, fac_max, h_max, h_min, h (in: proposal; out: next
+    proposal), err_prev, jump-allowance rate, runaway-floor rate, growths in a row]``.
+    ``chk[7]``, ``chk[10]`` are set per step from the rates (both proportional to the step).
+    ``info = [force evaluations, accepted steps, value, t reached, rejected steps]``.
+    """
+    n = arr.shape[1]
+    n1 = n + 1
+    ns = at.shape[0]
+    W = np.zeros((_NW, n))
+    S = np.zeros(_NS)
+    X = np.zeros((2, n1))
+    kgeo = np.zeros(n)
+    sq = np.zeros((ns, n1))
+    sv = np.zeros((ns, n1))
+    wk = np.zeros((8, n1))
+    yn = np.empty(2 * n1)
+    err = np.empty(2 * n1)
+    us = np.empty(ns)
+    es = np.empty(ns)
+    atol, rtol, safety, fmin, fmax, hmax, hmin = ctl[0], ctl[1], ctl[2], ctl[3], ctl[4], ctl[5], ctl[6]
+    h = min(ctl[7], hmax)
+    t = t0
+    k_exp = 1.0 / 3.0  # 1 / (embedded order + 1)
+    while t < t1:
+        last = False
+        hs = h
+        if t + hs >= t1 - 1e-12 * max(1.0, abs(t1)):
+            hs = t1 - t
+            last = True
+        for i in range(ns):
+            ts = t + ctimes[i] * hs
+            us[i] = _interp(ts, tin0, tdt, uin)
+            es[i] = _interp(ts, tin0, tdt, ein)
+        ok = _ros_step(arr, par, geometric, hs, us, es, y, yn, err, W, S, X, kgeo, sq, sv, wk,
+                       at, ct, mt, et, gamma)
+        info[0] += ns
+        en = err_norm(arr, y, yn, err, atol, rtol) if ok else np.inf
+        if not np.isfinite(en) or en > 1.0:
+            info[4] += 1
+            fac = fmin if not np.isfinite(en) else max(fmin, min(1.0, safety * en ** (-k_exp)))
+            h = hs * fac
+            ctl[11] = 0.0
+            if h < hmin:
+                info[3] = t
+                info[2] = h
+                return STATUS_STEP_UNDERFLOW
+            continue
+        chk[7] = ctl[9] * hs
+        if chk.shape[0] > 10:
+            chk[10] = ctl[10] * hs
+        status = check_packed(arr, par, yn, chk, info)
+        if status != STATUS_OK:
+            info[3] = t + hs
+            return status
+        y[:] = yn
+        info[1] += 1
+        t = t1 if last else t + hs
+        # PI controller (Gustafsson): fac = safety en^(-0.7/k) en_prev^(0.4/k)
+        en = max(en, 1e-10)
+        ep = ctl[8] if ctl[8] > 0.0 else en
+        fac = safety * en ** (-0.7 * k_exp) * ep ** (0.4 * k_exp)
+        # growth cap: at most 1.4 once the step grew in each of the last two steps, so that
+        # steadily growing steps are not read as a runaway mode by the check
+        cap = fmax if ctl[11] < 2.0 else min(fmax, 1.4)
+        fac = max(fmin, min(cap, fac))
+        ctl[11] = ctl[11] + 1.0 if fac > 1.4 else 0.0
+        ctl[8] = en
+        hnew = min(hs * fac, hmax)
+        if last and hs < h:
+            hnew = max(hnew, h) if fac >= 1.0 else min(h, hnew)  # a clipped last step: keep h
+        h = hnew
+    ctl[7] = h
+    info[3] = t
+    return STATUS_OK
+
+
+# --------------------------------------------------------------------------------------------
+# Integrators
+# --------------------------------------------------------------------------------------------
+
+
+def _dense_ros_step(system: CableSystem, t: float, y: np.ndarray, h: float, geometric: bool
+                    ) -> tuple[np.ndarray, np.ndarray]:
+    """One ROS34PW2 step with the dense ``M``, ``D``, ``K`` (reference for the O(n) path):
+    the new state and the embedded difference."""
+    model = system.model
+    n1 = model.ndof
+    q, v = y[:n1], y[n1:]
+    hg = GAMMA * h
+    sq = np.zeros((_STAGES, n1))
+    sv = np.zeros((_STAGES, n1))
+    Mt = None
+    for i in range(_STAGES):
+        Yq = q + h * (A_T[i, :i] @ sq[:i])
+        Yv = v + h * (A_T[i, :i] @ sv[:i])
+        acc, lam = system.accelerations(t + C_TIMES[i] * h, np.concatenate([Yq, Yv]))
+        system.nfev += 1
+        if i == 0:
+            kgeo = None
+            if geometric:
+                F = dynamics.joint_forces(model, Yq, Yv, acc, lam)
+                kgeo = _geometric_stiffness(model, Yq, F)
+            M, D, K = dense_operator(model, Yq, Yv, kgeo)
+            Mt = M + hg * D + hg * hg * K
+        rq = GAMMA * (Yv + C_T[i, :i] @ sq[:i])
+        rv = GAMMA * (acc + C_T[i, :i] @ sv[:i])
+        sv[i] = rv - _dense_solve(model, q, Mt, hg * (D @ rv) + hg * (K @ (rq + hg * rv)))
+        sq[i] = rq + hg * sv[i]
+    yn = np.concatenate([q + h * (M_T @ sq), v + h * (M_T @ sv)])
+    return yn, np.concatenate([h * (E_T @ sq), h * (E_T @ sv)])
+
+
+class Ros34PW2(Integrator):
+    """ROS34PW2 (Rang & Angermann 2005) with the local O(n) operator, fixed step.
+
+    Order 3 for any approximation of the Jacobian (a Rosenbrock W-method), hence order 3 with
+    the local ``D``, ``K`` of :mod:`cable_sim.integrate.implicit`. Four stages: four force
+    evaluations, one O(n) factorisation and four O(n) solves per step (twice the work of
+    :class:`~cable_sim.integrate.implicit.schemes.Rosenbrock2`). Stability: L-stable for the
+    part in ``W`` (``R(z) -> 0`` as ``z -> -inf``), stiffly accurate; embedded order-2
+    solution (used by :class:`Ros34PW2Adaptive`). See :mod:`cable_sim.integrate.implicit.ros34`.
+
+    Parameters
+    ----------
+    system : CableSystem
+    step : float
+        h [s].
+    geometric_stiffness : bool
+        Include the tension stiffness in ``K`` (default True).
+    max_drift, taut_slack, max_condition, compiled
+        See :class:`cable_sim.integrate.base.Integrator`.
+    """
+
+    name = "ros34pw2"
+    order = 3
+    _fast_offsets = tuple(float(c) for c in C_TIMES)
+
+    def __init__(self, system: CableSystem, step: float = 1e-2, geometric_stiffness: bool = True,
+                 **kwargs) -> None:
+        self.geometric = bool(geometric_stiffness)
+        super().__init__(system, step=step, **kwargs)
+
+    def _fast_kernel(self, arr, par, h, u, eta, y, chk, info) -> int:
+        return _ros_fixed_run(arr, par, self.geometric, h, u, eta, y, chk, info, A_T, C_T, M_T,
+                              E_T, GAMMA)
+
+    def _step(self, t: float, y: np.ndarray, h: float) -> np.ndarray:
+        return _dense_ros_step(self.system, t, y, h, self.geometric)[0]
+
+
+class Ros34PW2Adaptive(Ros34PW2):
+    """ROS34PW2 with its embedded order-2 error estimate and a PI step-size controller.
+
+    Order 3 (the propagated solution; the estimate is order 2), L-stable, see :class:`Ros34PW2`.
+    :meth:`advance` steps adaptively from t to exactly ``t_end`` (the output grid stays fixed:
+    the last step of an interval is shortened to end on it, the controller's proposal carries
+    over to the next interval). Error per step: the joint-mapped max norm of the module
+    docstring against ``atol + rtol |.|``; PI controller (Gustafsson) with safety factor,
+    ``fac_min``/``fac_max`` bounds and rejection. Inputs are sampled every ``input_spacing`` s
+    (at least four samples per interval) and interpolated cubically inside the compiled loop.
+
+    Parameters
+    ----------
+    system : CableSystem
+    step : float
+        Output interval of :meth:`Integrator.integrate`-style use and of :meth:`step` [s].
+    rtol, atol : float
+        Relative tolerance (>= 0) and absolute tolerance [m, m/s] (> 0) of the joint positions
+        and velocities per step.
+    first_step : float
+        First trial step [s] (default 1e-3).
+    max_step : float
+        Largest step [s] (default inf).
+    safety, fac_min, fac_max : float
+        Controller safety factor (0 < safety <= 1) and bounds of the step change per step
+        (0 < fac_min < 1 < fac_max).
+    input_spacing : float
+        Input sampling interval [s] (> 0).
+    geometric_stiffness, max_drift, taut_slack, max_condition, compiled
+        See :class:`Ros34PW2`.
+    """
+
+    name = "ros34pw2_adaptive"
+    order = 3
+    adaptive = True
+
+    def __init__(self, system: CableSystem, step: float = 1e-2, rtol: float = 0.0,
+                 atol: float = 1e-3, first_step: float = 1e-3, max_step: float = np.inf,
+                 safety: float = 0.9, fac_min: float = 0.2, fac_max: float = 2.0,
+                 input_spacing: float = INPUT_SPACING, **kwargs) -> None:
+        checks = (("rtol", rtol, np.isfinite(rtol) and rtol >= 0, "finite number >= 0"),
+                  ("atol", atol, np.isfinite(atol) and atol > 0, "finite number > 0"),
+                  ("first_step", first_step, np.isfinite(first_step) and first_step > 0,
+                   "finite number > 0"),
+                  ("max_step", max_step, max_step > 0, "number > 0 (inf allowed)"),
+                  ("safety", safety, 0 < safety <= 1, "0 < safety <= 1"),
+                  ("fac_min", fac_min, 0 < fac_min < 1, "0 < fac_min < 1"),
+                  ("fac_max", fac_max, 1 < fac_max < np.inf, "1 < fac_max < inf"),
+                  ("input_spacing", input_spacing, np.isfinite(input_spacing) and input_spacing > 0,
+                   "finite number > 0"))
+        for name, value, ok, allowed in checks:
+            if not ok:
+                raise ValueError(f"parameter '{name}' = {value!r} is invalid; allowed: {allowed}")
+        self.rtol, self.atol = float(rtol), float(atol)
+        self.input_spacing = float(input_spacing)
+        self._ctl = np.array([atol, rtol, safety, fac_min, fac_max, max_step, 1e-10,
+                              first_step, 0.0, 0.0, 0.0, 0.0], dtype=float)
+        self.first_step = float(first_step)
+        #: Rejected steps so far.
+        self.nrejected = 0
+        super().__init__(system, step=step, **kwargs)
+
+    def _warm(self) -> None:
+        cls = type(self)
+        if cls in _WARMED:
+            return
+        arr, par = fast.pack_arrays(CableModel.from_params(CableParams(n_links=2)))
+        ctl = self._ctl.copy()
+        _ros_adaptive_run(arr, par, True, 0.0, 1e-3, 0.0, 1e-3, np.zeros(2), np.zeros(2),
+                          np.zeros(6), self._chk(), np.zeros(5), ctl, A_T, C_T, C_TIMES, M_T, E_T,
+                          GAMMA)
+        _WARMED.add(cls)
+
+    def step(self, t: float, y: np.ndarray, h: float | None = None) -> np.ndarray:
+        """Advance adaptively over one output interval ``h`` (default: the configured step)."""
+        return self.advance(t, y, t + (self.h if h is None else h))
+
+    def _sample(self, t0: float, t1: float) -> tuple[float, np.ndarray, np.ndarray]:
+        k = max(3, int(np.ceil((t1 - t0) / self.input_spacing - 1e-9)))
+        dt = (t1 - t0) / k
+        ins = [self.system.input_at(t0 + i * dt) for i in range(k + 1)]
+        return (dt, np.array([i.heave_force for i in ins]),
+                np.array([i.wave_elevation for i in ins]))
+
+    def advance(self, t: float, y: np.ndarray, t_end: float) -> np.ndarray:
+        """Adaptive steps from t to exactly ``t_end`` (checked as every step of the contract)."""
+        y = self._validate(y)
+        if not t_end > t:
+            raise ValueError(f"parameter 't_end' = {t_end!r} is invalid; allowed: > t = {t!r}")
+        if self._last_y is None or not np.array_equal(y, self._last_y):
+            self._ctl[7] = self.first_step  # a new run: start afresh
+            self._ctl[8] = 0.0
+            self._ctl[11] = 0.0
+        dt, u, eta = self._sample(t, t_end)
+        if self.compiled:
+            return self._advance_fast(t, y, t_end, dt, u, eta)
+        return self._advance_python(t, y, t_end, dt, u, eta)
+
+    def _advance_fast(self, t, y, t_end, dt, u, eta) -> np.ndarray:
+        arr, par, chk = self._fast_model()
+        yc = np.array(y, dtype=float, copy=True)
+        span = t_end - t
+        self.arm_checks(yc, span, 1, u, eta, chk)
+        self._ctl[9] = chk[7] / span
+        self._ctl[10] = (chk[10] / span) if chk.shape[0] > 10 else 0.0
+        info = np.zeros(5)
+        try:
+            status = _ros_adaptive_run(arr, par, self.geometric, float(t), float(t_end), float(t),
+                                       float(dt), u, eta, yc, chk, info, self._ctl, A_T, C_T,
+                                       C_TIMES, M_T, E_T, GAMMA)
+        finally:
+            disarm(chk)
+        self.nsteps += int(info[1])
+        self.nrejected += int(info[4])
+        self.system.nfev += int(info[0])
+        if status != 0:
+            chk[6] = np.nan
+            self._fail(status, float(info[3]), float(info[2]), yc)
+        self.step_used = span / max(1, int(info[1]))
+        return self._accepted(yc)
+
+    def _fail(self, status: int, t: float, value: float, y: np.ndarray) -> None:
+        if status == STATUS_STEP_UNDERFLOW:
+            raise IntegrationError(t, f"step size {value:.3g} s below the floor {self._ctl[6]:g} s: "
+                                   f"the error estimate does not fall below atol = {self.atol:g}, "
+                                   f"rtol = {self.rtol:g} (singular or diverging dynamics)")
+        self._raise_status(status, t, value, y)
+
+    def _advance_python(self, t, y, t_end, dt, u, eta) -> np.ndarray:
+        """The same controller on the dense step (reference path)."""
+        ctl = self._ctl
+        atol, rtol, safety, fmin, fmax, hmax, hmin = ctl[:7]
+        span = t_end - t
+        self._budget_for(y, span, float(np.abs(u).max()), float(np.abs(eta).max()))
+        rate = self._energy_jump_allowed(span) / span
+        arr, _par = fast.pack_arrays(self.system.model)
+        saved = self.system.input_at
+        h = min(ctl[7], hmax)
+        try:
+            self.system.input_at = lambda s: dynamics.Inputs(
+                float(_interp(s, t, dt, u)), float(_interp(s, t, dt, eta)))
+            while t < t_end:
+                hs, last = h, False
+                if t + hs >= t_end - 1e-12 * max(1.0, abs(t_end)):
+                    hs, last = t_end - t, True
+                try:
+                    yn, err = _dense_ros_step(self.system, t, y, hs, self.geometric)
+                    en = err_norm(arr, y, yn, err, atol, rtol)
+                except np.linalg.LinAlgError:
+                    en = np.inf
+                if not np.isfinite(en) or en > 1.0:
+                    self.nrejected += 1
+                    fac = fmin if not np.isfinite(en) else max(fmin, min(1.0, safety * en ** (-1 / 3)))
+                    h = hs * fac
+                    ctl[11] = 0.0
+                    if h < hmin:
+                        self._fail(STATUS_STEP_UNDERFLOW, t, h, y)
+                    continue
+                yn = self._check(t + hs, yn, y)
+                jump = self._energy(yn) - self._energy(y)
+                if jump > rate * hs:
+                    self._raise_status(ENERGY_JUMP, t + hs, jump, y)
+                mem = self._osc_memory()
+                mem[10] = self._osc_floor(hs)
+                info = np.zeros(4)
+                if fast.oscillation_packed(yn, mem, info) != 0:
+                    self._raise_status(OSCILLATION, t + hs, float(info[2]), y)
+                y = yn
+                self.nsteps += 1
+                t = t_end if last else t + hs
+                en = max(en, 1e-10)
+                ep = ctl[8] if ctl[8] > 0.0 else en
+                fac = safety * en ** (-0.7 / 3) * ep ** (0.4 / 3)
+                cap = fmax if ctl[11] < 2.0 else min(fmax, 1.4)
+                fac = max(fmin, min(cap, fac))
+                ctl[11] = ctl[11] + 1.0 if fac > 1.4 else 0.0
+                ctl[8] = en
+                hnew = min(hs * fac, hmax)
+                if last and hs < h:
+                    hnew = max(hnew, h) if fac >= 1.0 else min(h, hnew)
+                h = hnew
+        finally:
+            self.system.input_at = saved
+        ctl[7] = h
+        return self._accepted(y)
+
+
+__all__ = ["ALPHA", "B", "B_HAT", "GAMMA", "GAMMA_IJ", "Ros34PW2", "Ros34PW2Adaptive", "err_norm"]
