@@ -69,6 +69,30 @@ class RefLine:
         self.drag = p.drag_model
         self.gamma = p.paper_drag_gamma
         self.cn, self.ct, self.U = p.drag_cn, p.drag_ct, p.current_speed
+        # seabed (issue 11): flat floor at z_b, elastic energy int 1/2 k_b delta^2 ds
+        self.zb = None
+        if getattr(p, "seabed", False):
+            self.zb = p.anchor_z if p.seabed_depth is None else float(p.seabed_depth)
+        self.kb = float(getattr(p, "seabed_stiffness", 0.0))
+
+    def _bed_intervals(self, q: np.ndarray):
+        """Per link: (i, a, b, d0, d1) with delta(s) = d0 + d1 s > 0 on [a, b] (closed forms)."""
+        out = []
+        if self.zb is None:
+            return out
+        p = self.joints(q)
+        for i in range(self.n):
+            d0, d1, l = self.zb - p[i, 1], math.cos(q[1 + i]), self.l[i]
+            a, b = 0.0, l
+            if d1 > 0:
+                a = min(max(0.0, -d0 / d1), l)
+            elif d1 < 0:
+                b = max(min(l, -d0 / d1), 0.0)
+            elif d0 <= 0:
+                continue
+            if b > a and max(d0 + d1 * a, d0 + d1 * b) > 0:
+                out.append((i, a, b, d0, d1))
+        return out
 
     # ---- kinematics (explicit loops: deliberately unlike the vectorised implementation) -----
     def joints(self, q: np.ndarray) -> np.ndarray:
@@ -126,6 +150,9 @@ class RefLine:
         for i in range(self.n):
             V += 0.5 * self.k[i] * (q[1 + i] - prev) ** 2
             prev = q[1 + i]
+        for _i, a, b, d0, d1 in self._bed_intervals(q):  # int 1/2 k (d0 + d1 s)^2 ds
+            V += 0.5 * self.kb * (d0 * d0 * (b - a) + d0 * d1 * (b * b - a * a)
+                                  + d1 * d1 * (b**3 - a**3) / 3.0)
         return float(V)
 
     def energy(self, q: np.ndarray, qd: np.ndarray) -> float:
@@ -144,6 +171,14 @@ class RefLine:
         tau = self.k * phi
         gr[1:] += tau
         gr[1:-1] -= tau[1:]
+        # seabed: dV/dq = -int k delta dz/dq ds, dz/dq = (1, l_j sin th_j (j < i), s sin th_i)
+        for i, a, b, d0, d1 in self._bed_intervals(q):
+            f0 = self.kb * (d0 * (b - a) + d1 * (b * b - a * a) / 2.0)  # int k delta
+            f1 = self.kb * (d0 * (b * b - a * a) / 2.0 + d1 * (b**3 - a**3) / 3.0)  # int k delta s
+            gr[0] -= f0
+            for j in range(i):
+                gr[1 + j] -= f0 * self.l[j] * math.sin(q[1 + j])
+            gr[1 + i] -= f1 * math.sin(q[1 + i])
         return gr
 
     # ---- non-conservative forces ----------------------------------------------------------

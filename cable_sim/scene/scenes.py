@@ -184,9 +184,17 @@ class Scene:
 
 
 def scene_from_dict(values: dict[str, Any]) -> Scene:
-    """Build a scene from flat key/values (unknown keys go to ``extra``)."""
+    """Build a scene from flat key/values (unknown keys go to ``extra``).
+
+    An anchored scene (``end_condition`` anchored or paper_anchor) without a ``seabed`` key gets
+    a seabed at the anchor's depth (``seabed_depth`` unset); free-end scenes have none unless
+    they ask for it. The shipped scenes all state ``seabed`` and ``added_mass`` explicitly.
+    """
     pnames = set(CableParams.field_names())
     pkw = {k: v for k, v in values.items() if k in pnames}
+    if "seabed" not in pkw and pkw.get("end_condition") in ("anchored", "paper_anchor"):
+        # an anchored scene that does not say otherwise lies on a seabed at the anchor's depth
+        pkw["seabed"] = True
     if "link_lengths" in pkw and not pkw["link_lengths"]:
         pkw["link_lengths"] = None
     if "mass_per_length" in pkw and pkw["mass_per_length"] in (0, 0.0, None):

@@ -38,8 +38,10 @@ from cable_sim.core.statics import static_equilibrium
 from cable_sim.core.system import CableSystem
 from cable_sim.scene.scenes import load_scene
 
-#: scene overrides: no joint springs (pin included), no forcing
-NO_BENDING = {"joint_springs": False, "heave_force_source": "none", "wave_source": "none"}
+#: scene overrides: no joint springs (pin included), no forcing, no seabed (this is the free
+#: catenary between fairlead and anchor; the line on a seabed: test_seabed_statics.py)
+NO_BENDING = {"joint_springs": False, "heave_force_source": "none", "wave_source": "none",
+              "seabed": False}
 SCENES = ("paper_anchored_forced", "mooring_line")
 
 
