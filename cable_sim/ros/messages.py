@@ -68,8 +68,20 @@ def build_float_array(values: Iterable[float]):
     return Float64MultiArray(data=[float(v) for v in values])
 
 
-def build_markers(out: Any, model: Any, stamp_ns: int, frame_id: str = "world"):
-    """visualization_msgs/MarkerArray: cable line strip coloured by tension, end, platform, water."""
+#: (ns, id) of every marker of :func:`build_markers`: one marker per namespace, ids fixed for a run.
+MARKER_IDS = {"cable": 0, "end": 1, "platform": 2, "water": 3}
+
+
+def build_markers(out: Any, model: Any, stamp_ns: int, frame_id: str = "world", delete_all: bool = False):
+    """visualization_msgs/MarkerArray: cable line strip coloured by tension, end, platform, water.
+
+    RViz conventions: one (ns, id) per marker, the same every message (:data:`MARKER_IDS`), so each
+    message replaces the previous one in place; ``lifetime`` 0 (kept until replaced: a paused run
+    stays on screen) and ``frame_locked`` false (every marker is in ``frame_id``, a fixed frame;
+    there is nothing to re-transform). ``delete_all`` puts a ``DELETEALL`` marker (empty ns: every
+    namespace) first, which RViz applies before the markers after it in the same array: the node
+    sends it with its first markers and after a reset, so markers of an earlier run never linger.
+    """
     from geometry_msgs.msg import Point
     from std_msgs.msg import ColorRGBA
     from visualization_msgs.msg import Marker, MarkerArray
@@ -102,7 +114,22 @@ def build_markers(out: Any, model: Any, stamp_ns: int, frame_id: str = "world"):
     x0, x1 = float(min(p[:, 0].min(), 0.0)) - 20.0, float(p[:, 0].max()) + 20.0
     water.points = [Point(x=x0, z=eta), Point(x=x1, z=eta)]
     water.color = ColorRGBA(r=0.1, g=0.4, b=1.0, a=0.6)
-    return MarkerArray(markers=[line, end, plat, water])
+    markers = [line, end, plat, water]
+    for mk in markers:
+        mk.id = MARKER_IDS[mk.ns]
+        mk.frame_locked = False
+    if delete_all:
+        clear = Marker(header=hdr, ns="", id=0, action=Marker.DELETEALL)
+        clear.pose.orientation.w = 1.0
+        markers.insert(0, clear)
+    return MarkerArray(markers=markers)
+
+
+def build_robot_description(urdf: str):
+    """std_msgs/String holding the URDF (what robot_state_publisher takes on ``robot_description``)."""
+    from std_msgs.msg import String
+
+    return String(data=urdf)
 
 
 def build_diagnostics(values: dict[str, Any], stamp_ns: int, name: str = "cable_sim"):

@@ -1,10 +1,20 @@
 """The node's outputs: publishers, their topics, the rates in steps, and publishing with recording.
 
 Every message the node publishes goes through :meth:`NodeOutputs.publish`, which counts it and
-hands it to the recorder with its simulated-time stamp. Outputs are checked before they are
-published: an :class:`IntegrationError` or a non-finite value stops the run instead.
+hands it to the recorder with its simulated-time stamp; the recording also gets ``/tf`` at every
+joint state and ``/tf_static`` + ``robot_description`` at its start (:mod:`cable_sim.ros.tf_output`).
+Outputs are checked before they are published: an :class:`IntegrationError` or a non-finite value
+stops the run instead.
 
-May import rclpy, the ROS message packages, :mod:`cable_sim.ros.messages` and the layers below.
+QoS (REP-2003): the streams are reliable, volatile, keep last 10 (:data:`STREAM_QOS`): the node is
+a simulator, not a sensor driver, so a subscriber that can keep up gets every state (plots and
+controllers need gap-free series; with best effort a reliable subscriber, the default of
+``ros2 topic echo`` and rclpy, would not match at all), and a late joiner gets the next state
+(no stale history). ``robot_description`` is reliable, transient local, keep last 1
+(:data:`DESCRIPTION_QOS`), as robot_state_publisher offers it: a late subscriber still gets it.
+
+May import rclpy, the ROS message packages, :mod:`cable_sim.ros.messages`, :mod:`cable_sim.ros.urdf`,
+:mod:`cable_sim.ros.tf_output` and the layers below.
 """
 
 from __future__ import annotations
@@ -15,10 +25,10 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import WrenchStamped
-from rclpy.qos import QoSProfile, ReliabilityPolicy
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
-from std_msgs.msg import Float64MultiArray
+from std_msgs.msg import Float64MultiArray, String
 from visualization_msgs.msg import MarkerArray
 
 from cable_sim.integrate import IntegrationError
@@ -26,9 +36,12 @@ from cable_sim.ros.messages import (
     build_float_array,
     build_joint_state,
     build_markers,
+    build_robot_description,
     build_wrench,
     clock_message,
 )
+from cable_sim.ros.tf_output import TfRecording
+from cable_sim.ros.urdf import urdf_for_model
 from cable_sim.scene.simulation import Outputs
 
 if TYPE_CHECKING:
@@ -39,9 +52,18 @@ TOPICS = ("joint_states", "cable_markers", "fairlead_tension", "anchor_force", "
           "diagnostics", "applied_inputs", "heave_force", "wave_elevation")
 INPUT_TOPICS = ("heave_force", "wave_elevation")
 
+#: QoS of the node's streams (every output but robot_description) and inputs.
+STREAM_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST,
+                        durability=DurabilityPolicy.VOLATILE)
+#: QoS of robot_description (as robot_state_publisher): latched for late subscribers.
+DESCRIPTION_QOS = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST,
+                             durability=DurabilityPolicy.TRANSIENT_LOCAL)
+
 
 class NodeOutputs:
-    """Publishers of ``node`` (reliable, keep last 10) and what they have published.
+    """Publishers of ``node`` (:data:`STREAM_QOS`; robot_description :data:`DESCRIPTION_QOS`) and what
+    they have published. ``robot_description`` is published once, here (the scene's n is fixed for
+    the node's life: a reset keeps it).
 
     Parameters
     ----------
@@ -51,7 +73,7 @@ class NodeOutputs:
 
     def __init__(self, node: Node) -> None:
         self.node = node
-        qos = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
+        qos = STREAM_QOS
         self.qos = qos
         pub = node.create_publisher
         self.pub: dict[str, Any] = {
@@ -64,12 +86,22 @@ class NodeOutputs:
         self.pub["line_tension"] = pub(Float64MultiArray, "line_tension", qos)
         self.pub["diagnostics"] = pub(DiagnosticArray, "diagnostics", qos)
         self.pub["applied_inputs"] = pub(Float64MultiArray, "applied_inputs", qos)
+        self.pub["robot_description"] = pub(String, "robot_description", DESCRIPTION_QOS)
         if node.clock_mode != "realtime":
             self.pub["clock"] = pub(Clock, "/clock", qos)
         ns = node.get_namespace().rstrip("/")
-        self.topic = {name: f"{ns}/{name}" for name in TOPICS}
+        self.topic = {name: f"{ns}/{name}" for name in (*TOPICS, "robot_description")}
         self.topic["clock"] = "/clock"
         self.published: dict[str, int] = {k: 0 for k in self.topic if k not in INPUT_TOPICS}
+        #: The URDF of the simulated model (as ``cable_sim_urdf`` prints it for the same parameters).
+        self.urdf = urdf_for_model(node.sim.model, f"cable_sim_{node.sim.scene.name}")
+        self.description = build_robot_description(self.urdf)
+        self.pub["robot_description"].publish(self.description)  # recorded with the first output
+        self.published["robot_description"] = 1
+        #: TF in the recording (None until the first recorded message).
+        self._tf: TfRecording | None = None
+        #: Start the next MarkerArray with DELETEALL (first markers, and after a reset).
+        self._clear_markers = True
         self.last: Outputs | None = None
         #: Called with ``(outputs, stamp)`` after every publication of outputs: the place where a
         #: further view of the same state (e.g. /tf in the recording, a live viewer) plugs in.
@@ -96,8 +128,23 @@ class NodeOutputs:
             return
         pub.publish(msg)
         self.published[name] += 1
-        if self.node.recorder is not None:
-            self.node.recorder.write(self.topic[name], msg, stamp)
+        rec = self.node.recorder
+        if rec is not None:
+            tf = self._tf if self._tf is not None else self._start_tf(rec, stamp)
+            rec.write(self.topic[name], msg, stamp)
+            if name == "joint_states":
+                tf.joint_state(msg.position, stamp)
+
+    def _start_tf(self, rec: Any, stamp: int) -> TfRecording:
+        """Start the recording's TF: ``robot_description`` and ``/tf_static`` at ``stamp``."""
+        node = self.node
+        self._tf = TfRecording(rec, node.sim.model, node.frame_id, self.topic["robot_description"])
+        self._tf.start(self.description, stamp)
+        return self._tf
+
+    def clear_markers(self) -> None:
+        """Send DELETEALL before the next markers (the reset service calls this)."""
+        self._clear_markers = True
 
     def publish_clock(self) -> None:
         """``/clock`` at the current simulated time (fast and lockstep modes only)."""
@@ -136,7 +183,8 @@ class NodeOutputs:
         if js or force_all:
             self.publish("joint_states", build_joint_state(out, stamp, frame), stamp)
         if mk or force_all:
-            self.publish("cable_markers", build_markers(out, node.sim.model, stamp, frame), stamp)
+            clear, self._clear_markers = self._clear_markers, False
+            self.publish("cable_markers", build_markers(out, node.sim.model, stamp, frame, clear), stamp)
         if tn or force_all:
             self.publish("fairlead_tension", build_wrench(-out.fairlead_force, stamp, frame), stamp)
             if "anchor_force" in self.pub:

@@ -33,6 +33,7 @@ class NodeServices:
         node.pacing.rebase(time.monotonic())
         node.clock.reset()
         node.outputs.publish_applied()
+        node.outputs.clear_markers()  # RViz drops the markers of the run before the reset
         # in lockstep before the controller is connected, joint_states(t0) still waits for it
         node.outputs.publish_outputs(js=node.lockstep_started, mk=True, tn=True)
         response.success, response.message = True, "reset to the scene's initial state at t = 0"

@@ -35,6 +35,18 @@ DEFAULT_QOS_YAML = (
     "  avoid_ros_namespace_conventions: false\n"
 )
 
+#: QoS of latched outputs (``robot_description``, ``/tf_static``): reliable, transient local, keep
+#: last 1, as robot_state_publisher offers them; ``ros2 bag play`` re-offers them the same way, so a
+#: late subscriber of a replayed run still gets them.
+TRANSIENT_LOCAL_QOS_YAML = DEFAULT_QOS_YAML.replace("depth: 10", "depth: 1").replace(
+    "durability: volatile", "durability: transient_local")
+
+#: Definitions of types recorded without their package installed (no wheel of tf2_msgs here): the
+#: ``.msg`` text as the package ships it; nested types are read from the installed packages.
+SUPPLIED_DEFINITIONS = {
+    "tf2_msgs/TFMessage": "geometry_msgs/TransformStamped[] transforms\n",
+}
+
 _PRIMITIVES = {
     "bool", "byte", "char", "float32", "float64", "int8", "uint8", "int16", "uint16", "int32",
     "uint32", "int64", "uint64", "string", "wstring", "time", "duration",
@@ -115,6 +127,18 @@ def _dependencies(text: str, pkg: str) -> list[str]:
     return deps
 
 
+def _msg_text(type_name: str) -> str:
+    """The ``.msg`` text of ``pkg/Type``: the installed file, else :data:`SUPPLIED_DEFINITIONS`."""
+    try:
+        return msg_file(type_name).read_text()
+    except FileNotFoundError:
+        pkg, name = _split_type(type_name)
+        supplied = SUPPLIED_DEFINITIONS.get(f"{pkg}/{name}")
+        if supplied is None:
+            raise
+        return supplied
+
+
 def message_definition(type_name: str) -> str:
     """Full concatenated definition of a message type, as rosbag2 stores it in MCAP schemas.
 
@@ -122,7 +146,7 @@ def message_definition(type_name: str) -> str:
     ``"=" * 80 + "\\nMSG: pkg/Type\\n" + text``.
     """
     pkg, name = _split_type(type_name)
-    root = msg_file(f"{pkg}/{name}").read_text()
+    root = _msg_text(f"{pkg}/{name}")
     seen = {f"{pkg}/{name}"}
     sections: list[str] = []
     stack = list(reversed(_dependencies(root, pkg)))
@@ -132,7 +156,7 @@ def message_definition(type_name: str) -> str:
             continue
         seen.add(dep)
         dpkg, _ = _split_type(dep)
-        text = msg_file(dep).read_text()
+        text = _msg_text(dep)
         sections.append(f"{DEFINITION_SEPARATOR}\nMSG: {dep}\n{text}")
         stack.extend(reversed([d for d in _dependencies(text, dpkg) if d not in seen]))
     out = root

@@ -109,6 +109,7 @@ class RunRecorder:
         self._types: dict[type, str] = {}
         self._topic_types: dict[str, str] = {}
         self._channels: dict[str, int] = {}
+        self._offered_qos: dict[str, str] = {}
         self._schemas: dict[str, int] = {}
         self._counts: dict[str, int] = collections.defaultdict(int)
         self._written = 0
@@ -182,6 +183,11 @@ class RunRecorder:
         lt = int(log_time_ns)
         pt = lt if publish_time_ns is None else int(publish_time_ns)
         self._queue.append(("m", topic, type_name, data, lt, pt))
+
+    def offer_qos(self, topic: str, qos_yaml: str) -> None:
+        """Store ``qos_yaml`` (rosbag2's ``offered_qos_profiles`` form) for ``topic`` instead of the
+        default (reliable, volatile, keep last 10); call before the topic's first message."""
+        self._offered_qos[topic] = qos_yaml
 
     def add_metadata(self, name: str, data: dict[str, str]) -> None:
         """Add a metadata record (written in order with the messages)."""
@@ -351,7 +357,7 @@ class RunRecorder:
                 name=tname, encoding=SCHEMA_ENCODING, data=definition.encode())
         cid = self._writer.register_channel(
             topic=topic, message_encoding=MESSAGE_ENCODING, schema_id=sid,
-            metadata={"offered_qos_profiles": DEFAULT_QOS_YAML})
+            metadata={"offered_qos_profiles": self._offered_qos.get(topic, DEFAULT_QOS_YAML)})
         self._channels[topic] = cid
         self._topic_types[topic] = tname
         return cid

@@ -1,0 +1,194 @@
+"""TF of the cable in the node's recording: ``/tf``, ``/tf_static`` and ``robot_description`` in the MCAP.
+
+In a ROS 2 install robot_state_publisher turns ``robot_description`` + ``joint_states`` into
+``/tf`` and ``/tf_static`` on the live graph. A recording has no robot_state_publisher, so the node
+writes what it would send into its MCAP (recording only; the live graph is unchanged): the
+transforms of :func:`cable_sim.ros.urdf.tf_transforms` at every joint state (same stamps), the
+fixed joints' transforms on ``/tf_static`` once at the start, and the URDF. A recorded run opened
+in Foxglove (or played back) then shows the moving chain in a 3D panel with no extra nodes.
+
+tf2_msgs has no wheel here: the ``tf2_msgs/msg/TFMessage`` schema is written from its definition
+text (:data:`cable_sim.ros.recorder.definitions.SUPPLIED_DEFINITIONS`) and the CDR bytes by
+:class:`TfMessageEncoder` from a template (the frame names and the layout are fixed for a model;
+only the stamps and the 7 numbers per transform change), which is what a tf2_msgs publisher sends.
+
+Frames follow robot_state_publisher's ``frame_prefix``: with the node's ``frame_id`` =
+``<prefix>world`` (the launch file's convention; default ``world``) every frame is
+``<prefix><link>``; a ``frame_id`` not ending in ``world`` becomes the root frame itself.
+
+May import numpy, the standard library, :mod:`cable_sim.ros.urdf`, :mod:`cable_sim.ros.recorder`
+(definitions only, lazily) and :mod:`cable_sim.core`.
+"""
+
+from __future__ import annotations
+
+import struct
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from cable_sim.core.model import CableModel
+from cable_sim.ros.urdf import JOINT_AXIS, WORLD, static_transforms, tf_transforms
+
+#: Message type of /tf and /tf_static.
+TF_TYPE = "tf2_msgs/msg/TFMessage"
+#: Topics (global, as tf2 uses them).
+TF_TOPIC = "/tf"
+TF_STATIC_TOPIC = "/tf_static"
+#: CDR encapsulation header: plain CDR, little endian.
+_CDR_LE = b"\x00\x01\x00\x00"
+
+
+class TfMessageEncoder:
+    """CDR bytes of a ``tf2_msgs/msg/TFMessage`` with a fixed list of (parent, child) frames.
+
+    Parameters
+    ----------
+    frames : sequence of (str, str)
+        ``(header.frame_id, child_frame_id)`` of each transform, in message order.
+    """
+
+    def __init__(self, frames: Sequence[tuple[str, str]]) -> None:
+        self.frames = [(str(p), str(c)) for p, c in frames]
+        buf = bytearray(_CDR_LE)
+        stamps: list[int] = []
+        values: list[int] = []
+
+        def align(a: int) -> None:  # CDR alignment counts from the end of the encapsulation header
+            buf.extend(bytes(-(len(buf) - 4) % a))
+
+        buf.extend(struct.pack("<I", len(self.frames)))
+        for parent, child in self.frames:
+            align(4)
+            stamps.append(len(buf))
+            buf.extend(bytes(8))  # builtin_interfaces/Time: int32 sec, uint32 nanosec
+            for name in (parent, child):
+                data = name.encode()
+                align(4)
+                buf.extend(struct.pack("<I", len(data) + 1) + data + b"\x00")
+            align(8)
+            values.append(len(buf))
+            buf.extend(bytes(56))  # Vector3 translation + Quaternion rotation: 7 float64
+        self._template = np.frombuffer(bytes(buf), dtype=np.uint8)
+        self._stamp_at = np.asarray(stamps, dtype=np.intp)[:, None] + np.arange(8)
+        self._value_at = np.asarray(values, dtype=np.intp)[:, None] + np.arange(56)
+
+    def encode(self, stamp_ns: int, values: np.ndarray) -> bytes:
+        """The message with every header stamped ``stamp_ns`` and ``values`` as its transforms.
+
+        Parameters
+        ----------
+        stamp_ns : int
+            Stamp of every transform [ns] (>= 0).
+        values : ndarray, shape (len(frames), 7)
+            Per transform: translation x, y, z [m], rotation quaternion x, y, z, w.
+        """
+        vals = np.ascontiguousarray(values, dtype="<f8")
+        if vals.shape != (len(self.frames), 7):
+            raise ValueError(f"values has shape {vals.shape}; expected ({len(self.frames)}, 7)")
+        out = self._template.copy()
+        sec, nsec = divmod(int(stamp_ns), 1_000_000_000)
+        out[self._stamp_at] = np.frombuffer(struct.pack("<iI", sec, nsec), dtype=np.uint8)
+        out[self._value_at] = vals.view(np.uint8).reshape(len(self.frames), 56)
+        return out.tobytes()
+
+
+def _values(transforms: Sequence[Any]) -> np.ndarray:
+    return np.array([[*t[2], *t[3]] for t in transforms], dtype=float).reshape(len(transforms), 7)
+
+
+def frame_namer(frame_id: str):
+    """Map of URDF link names to TF frame names for the node's ``frame_id`` (module docstring)."""
+    if frame_id.endswith(WORLD):
+        prefix = frame_id[: -len(WORLD)]
+        return lambda name: prefix + name
+    return lambda name: frame_id if name == WORLD else name
+
+
+class CableTf:
+    """The moving and fixed transforms of ``model`` as TFMessage bytes (see the module docstring).
+
+    Parameters
+    ----------
+    model : CableModel
+        The simulated model (the one the published URDF describes).
+    frame_id : str
+        The node's ``frame_id`` (the root frame; see :func:`frame_namer`).
+    """
+
+    def __init__(self, model: CableModel, frame_id: str = WORLD) -> None:
+        self.model = model
+        name = frame_namer(frame_id)
+        moving = tf_transforms(model, np.zeros(model.n + 1), include_fixed=False)
+        self.moving = TfMessageEncoder([(name(p), name(c)) for p, c, _, _ in moving])
+        fixed = static_transforms(model)
+        self.fixed = TfMessageEncoder([(name(p), name(c)) for p, c, _, _ in fixed])
+        self._fixed_values = _values(fixed)
+        # moving transforms: translations are constant (heave only in row 0), rotations about -y
+        self._base = _values(moving)
+        self._axis = np.asarray(JOINT_AXIS, dtype=float)
+
+    def moving_values(self, joint_positions: Sequence[float] | np.ndarray) -> np.ndarray:
+        """``(n + 1, 7)`` translations and quaternions of the moving joints: the numbers of
+        :func:`tf_transforms` (``include_fixed=False``), vectorised."""
+        pos = np.asarray(joint_positions, dtype=float)
+        if pos.shape != (self.model.n + 1,):
+            raise ValueError(f"joint_positions has shape {pos.shape}; the model needs "
+                             f"({self.model.n + 1},) (heave, then one relative angle per link)")
+        v = self._base.copy()
+        v[0, 2] = pos[0]
+        half = 0.5 * pos[1:]
+        v[1:, 3:6] = np.sin(half)[:, None] * self._axis
+        v[1:, 6] = np.cos(half)
+        return v
+
+    def tf(self, joint_positions: Sequence[float] | np.ndarray, stamp_ns: int) -> bytes:
+        """``/tf`` message (CDR) at a joint state (``JointState.position`` of the node)."""
+        return self.moving.encode(stamp_ns, self.moving_values(joint_positions))
+
+    def tf_static(self, stamp_ns: int) -> bytes:
+        """``/tf_static`` message (CDR): the fixed joints."""
+        return self.fixed.encode(stamp_ns, self._fixed_values)
+
+
+class TfRecording:
+    """Writes ``/tf`` at every joint state, and ``/tf_static`` + ``robot_description`` once, to a recorder.
+
+    Parameters
+    ----------
+    recorder : cable_sim.ros.recorder.RunRecorder
+        The run's recorder.
+    model : CableModel
+        The simulated model.
+    frame_id : str
+        The node's ``frame_id``.
+    description_topic : str
+        Full name of the node's ``robot_description`` topic.
+    """
+
+    def __init__(self, recorder: Any, model: CableModel, frame_id: str, description_topic: str) -> None:
+        self.recorder = recorder
+        self.cable = CableTf(model, frame_id)
+        self.description_topic = description_topic
+        self.started = False
+        from cable_sim.ros.recorder.definitions import TRANSIENT_LOCAL_QOS_YAML  # the recorder needs mcap
+
+        for topic in (TF_STATIC_TOPIC, description_topic):
+            recorder.offer_qos(topic, TRANSIENT_LOCAL_QOS_YAML)
+
+    def start(self, description_msg: Any, stamp_ns: int) -> None:
+        """Record ``robot_description`` and ``/tf_static`` (once: at the start of the recording)."""
+        if self.started:
+            return
+        self.started = True
+        self.recorder.write(self.description_topic, description_msg, stamp_ns)
+        self.recorder.write_serialized(TF_STATIC_TOPIC, TF_TYPE, self.cable.tf_static(stamp_ns), stamp_ns)
+
+    def joint_state(self, joint_positions: Sequence[float], stamp_ns: int) -> None:
+        """Record ``/tf`` at a published joint state."""
+        self.recorder.write_serialized(TF_TOPIC, TF_TYPE, self.cable.tf(joint_positions, stamp_ns), stamp_ns)
+
+
+__all__ = ["TF_TYPE", "TF_TOPIC", "TF_STATIC_TOPIC", "TfMessageEncoder", "CableTf", "TfRecording",
+           "frame_namer"]
