@@ -114,7 +114,7 @@ INPUT_SPACING = 0.02
 
 
 @nb.njit(cache=True)
-def _ros_step(arr: np.ndarray, par: np.ndarray, geometric: bool, h: float, us: np.ndarray,
+def _ros_step(arr: np.ndarray, par: np.ndarray, geometric: bool, predict: bool, h: float, us: np.ndarray,
               es: np.ndarray, y: np.ndarray, yn: np.ndarray, err: np.ndarray, W: np.ndarray,
               S: np.ndarray, X: np.ndarray, kgeo: np.ndarray, sq: np.ndarray, sv: np.ndarray,
               wk: np.ndarray, at: np.ndarray, ct: np.ndarray, mt: np.ndarray, et: np.ndarray,
@@ -148,7 +148,13 @@ def _ros_step(arr: np.ndarray, par: np.ndarray, geometric: bool, h: float, us: n
             if geometric:
                 F = joint_forces_packed(arr, par, lam[0], lam[1], Yq, Yv, acc)
                 _kgeo_from_forces(arr, Yq, F, kgeo)
-            if not _op_factor(arr, par, Yq, Yv, hg, kgeo, W, S, X):
+            # drag linearised at the predicted velocity v + h a (a W-method keeps its order for
+            # any W; at rest the drag Jacobian at v itself is zero and the first steps of a
+            # free fall would treat the drag explicitly)
+            vp = wk[7]
+            for j in range(n1):
+                vp[j] = Yv[j] + h * acc[j] if predict else Yv[j]
+            if not _op_factor(arr, par, Yq, vp, hg, kgeo, W, S, X):
                 return False
         for j in range(n1):
             rq = Yv[j]
@@ -184,7 +190,7 @@ def _ros_step(arr: np.ndarray, par: np.ndarray, geometric: bool, h: float, us: n
 
 
 @nb.njit(cache=True)
-def _ros_fixed_run(arr: np.ndarray, par: np.ndarray, geometric: bool, h: float, u: np.ndarray,
+def _ros_fixed_run(arr: np.ndarray, par: np.ndarray, geometric: bool, predict: bool, h: float, u: np.ndarray,
                    eta: np.ndarray, y: np.ndarray, chk: np.ndarray, info: np.ndarray,
                    at: np.ndarray, ct: np.ndarray, mt: np.ndarray, et: np.ndarray,
                    gamma: float) -> int:
@@ -204,7 +210,7 @@ def _ros_fixed_run(arr: np.ndarray, par: np.ndarray, geometric: bool, h: float, 
     err = np.empty(2 * n1)
     for k in range(u.shape[0]):
         info[1] = k
-        ok = _ros_step(arr, par, geometric, h, u[k], eta[k], y, yn, err, W, S, X, kgeo, sq, sv,
+        ok = _ros_step(arr, par, geometric, predict, h, u[k], eta[k], y, yn, err, W, S, X, kgeo, sq, sv,
                        wk, at, ct, mt, et, gamma)
         info[0] += ns
         if not ok:
@@ -214,6 +220,18 @@ def _ros_fixed_run(arr: np.ndarray, par: np.ndarray, geometric: bool, h: float, 
             return status
         y[:] = yn
     return STATUS_OK
+
+
+@nb.njit(cache=True)
+def _clip(t: float, t1: float, h: float) -> tuple[float, bool]:
+    """The next step from t towards t1 with the proposal h, and whether it ends on t1: the
+    remainder when it is at most h, half of it when it is below 2 h (no sliver step)."""
+    r = t1 - t
+    if r <= h * (1.0 + 1e-12):
+        return r, True
+    if r < 2.0 * h:
+        return 0.5 * r, False
+    return h, False
 
 
 @nb.njit(cache=True, inline="always")
@@ -281,7 +299,7 @@ def err_norm(arr: np.ndarray, y: np.ndarray, yn: np.ndarray, err: np.ndarray, at
 
 
 @nb.njit(cache=True)
-def _ros_adaptive_run(arr: np.ndarray, par: np.ndarray, geometric: bool, t0: float, t1: float,
+def _ros_adaptive_run(arr: np.ndarray, par: np.ndarray, geometric: bool, predict: bool, t0: float, t1: float,
                       tin0: float, tdt: float, uin: np.ndarray, ein: np.ndarray, y: np.ndarray,
                       chk: np.ndarray, info: np.ndarray, ctl: np.ndarray, at: np.ndarray,
                       ct: np.ndarray, ctimes: np.ndarray, mt: np.ndarray, et: np.ndarray,
@@ -313,16 +331,12 @@ def _ros_adaptive_run(arr: np.ndarray, par: np.ndarray, geometric: bool, t0: flo
     t = t0
     k_exp = 1.0 / 3.0  # 1 / (embedded order + 1)
     while t < t1:
-        last = False
-        hs = h
-        if t + hs >= t1 - 1e-12 * max(1.0, abs(t1)):
-            hs = t1 - t
-            last = True
+        hs, last = _clip(t, t1, h)
         for i in range(ns):
             ts = t + ctimes[i] * hs
             us[i] = _interp(ts, tin0, tdt, uin)
             es[i] = _interp(ts, tin0, tdt, ein)
-        ok = _ros_step(arr, par, geometric, hs, us, es, y, yn, err, W, S, X, kgeo, sq, sv, wk,
+        ok = _ros_step(arr, par, geometric, predict, hs, us, es, y, yn, err, W, S, X, kgeo, sq, sv, wk,
                        at, ct, mt, et, gamma)
         info[0] += ns
         en = err_norm(arr, y, yn, err, atol, rtol) if ok else np.inf
@@ -355,7 +369,8 @@ def _ros_adaptive_run(arr: np.ndarray, par: np.ndarray, geometric: bool, t0: flo
         cap = fmax if ctl[11] < 2.0 else min(fmax, 1.4)
         fac = max(fmin, min(cap, fac))
         ctl[11] = ctl[11] + 1.0 if fac > 1.4 else 0.0
-        ctl[8] = en
+        if hs >= h * (1.0 - 1e-12):  # a shortened step's error says little about h
+            ctl[8] = en
         hnew = min(hs * fac, hmax)
         if last and hs < h:
             hnew = max(hnew, h) if fac >= 1.0 else min(h, hnew)  # a clipped last step: keep h
@@ -370,8 +385,8 @@ def _ros_adaptive_run(arr: np.ndarray, par: np.ndarray, geometric: bool, t0: flo
 # --------------------------------------------------------------------------------------------
 
 
-def _dense_ros_step(system: CableSystem, t: float, y: np.ndarray, h: float, geometric: bool
-                    ) -> tuple[np.ndarray, np.ndarray]:
+def _dense_ros_step(system: CableSystem, t: float, y: np.ndarray, h: float, geometric: bool,
+                    predict: bool = True) -> tuple[np.ndarray, np.ndarray]:
     """One ROS34PW2 step with the dense ``M``, ``D``, ``K`` (reference for the O(n) path):
     the new state and the embedded difference."""
     model = system.model
@@ -391,7 +406,7 @@ def _dense_ros_step(system: CableSystem, t: float, y: np.ndarray, h: float, geom
             if geometric:
                 F = dynamics.joint_forces(model, Yq, Yv, acc, lam)
                 kgeo = _geometric_stiffness(model, Yq, F)
-            M, D, K = dense_operator(model, Yq, Yv, kgeo)
+            M, D, K = dense_operator(model, Yq, Yv + h * acc if predict else Yv, kgeo)
             Mt = M + hg * D + hg * hg * K
         rq = GAMMA * (Yv + C_T[i, :i] @ sq[:i])
         rv = GAMMA * (acc + C_T[i, :i] @ sv[:i])
@@ -418,6 +433,9 @@ class Ros34PW2(Integrator):
         h [s].
     geometric_stiffness : bool
         Include the tension stiffness in ``K`` (default True).
+    predict_drag : bool
+        Linearise the drag (``D``) at the predicted velocity ``v + h a`` instead of ``v``
+        (default True; any ``W`` keeps the order, this one keeps the drag implicit from rest).
     max_drift, taut_slack, max_condition, compiled
         See :class:`cable_sim.integrate.base.Integrator`.
     """
@@ -427,16 +445,17 @@ class Ros34PW2(Integrator):
     _fast_offsets = tuple(float(c) for c in C_TIMES)
 
     def __init__(self, system: CableSystem, step: float = 1e-2, geometric_stiffness: bool = True,
-                 **kwargs) -> None:
+                 predict_drag: bool = True, **kwargs) -> None:
         self.geometric = bool(geometric_stiffness)
+        self.predict = bool(predict_drag)
         super().__init__(system, step=step, **kwargs)
 
     def _fast_kernel(self, arr, par, h, u, eta, y, chk, info) -> int:
-        return _ros_fixed_run(arr, par, self.geometric, h, u, eta, y, chk, info, A_T, C_T, M_T,
+        return _ros_fixed_run(arr, par, self.geometric, self.predict, h, u, eta, y, chk, info, A_T, C_T, M_T,
                               E_T, GAMMA)
 
     def _step(self, t: float, y: np.ndarray, h: float) -> np.ndarray:
-        return _dense_ros_step(self.system, t, y, h, self.geometric)[0]
+        return _dense_ros_step(self.system, t, y, h, self.geometric, self.predict)[0]
 
 
 class Ros34PW2Adaptive(Ros34PW2):
@@ -507,7 +526,7 @@ class Ros34PW2Adaptive(Ros34PW2):
             return
         arr, par = fast.pack_arrays(CableModel.from_params(CableParams(n_links=2)))
         ctl = self._ctl.copy()
-        _ros_adaptive_run(arr, par, True, 0.0, 1e-3, 0.0, 1e-3, np.zeros(2), np.zeros(2),
+        _ros_adaptive_run(arr, par, True, True, 0.0, 1e-3, 0.0, 1e-3, np.zeros(2), np.zeros(2),
                           np.zeros(6), self._chk(), np.zeros(5), ctl, A_T, C_T, C_TIMES, M_T, E_T,
                           GAMMA)
         _WARMED.add(cls)
@@ -546,9 +565,9 @@ class Ros34PW2Adaptive(Ros34PW2):
         self._ctl[10] = (chk[10] / span) if chk.shape[0] > 10 else 0.0
         info = np.zeros(5)
         try:
-            status = _ros_adaptive_run(arr, par, self.geometric, float(t), float(t_end), float(t),
-                                       float(dt), u, eta, yc, chk, info, self._ctl, A_T, C_T,
-                                       C_TIMES, M_T, E_T, GAMMA)
+            status = _ros_adaptive_run(arr, par, self.geometric, self.predict, float(t), float(t_end),
+                                       float(t), float(dt), u, eta, yc, chk, info, self._ctl, A_T,
+                                       C_T, C_TIMES, M_T, E_T, GAMMA)
         finally:
             disarm(chk)
         self.nsteps += int(info[1])
@@ -578,14 +597,13 @@ class Ros34PW2Adaptive(Ros34PW2):
         saved = self.system.input_at
         h = min(ctl[7], hmax)
         try:
+            t_in = t  # the sampling grid's origin (t itself advances below)
             self.system.input_at = lambda s: dynamics.Inputs(
-                float(_interp(s, t, dt, u)), float(_interp(s, t, dt, eta)))
+                float(_interp(s, t_in, dt, u)), float(_interp(s, t_in, dt, eta)))
             while t < t_end:
-                hs, last = h, False
-                if t + hs >= t_end - 1e-12 * max(1.0, abs(t_end)):
-                    hs, last = t_end - t, True
+                hs, last = _clip(t, t_end, h)
                 try:
-                    yn, err = _dense_ros_step(self.system, t, y, hs, self.geometric)
+                    yn, err = _dense_ros_step(self.system, t, y, hs, self.geometric, self.predict)
                     en = err_norm(arr, y, yn, err, atol, rtol)
                 except np.linalg.LinAlgError:
                     en = np.inf
@@ -615,7 +633,8 @@ class Ros34PW2Adaptive(Ros34PW2):
                 cap = fmax if ctl[11] < 2.0 else min(fmax, 1.4)
                 fac = max(fmin, min(cap, fac))
                 ctl[11] = ctl[11] + 1.0 if fac > 1.4 else 0.0
-                ctl[8] = en
+                if hs >= h * (1.0 - 1e-12):  # a shortened step's error says little about h
+                    ctl[8] = en
                 hnew = min(hs * fac, hmax)
                 if last and hs < h:
                     hnew = max(hnew, h) if fac >= 1.0 else min(h, hnew)
