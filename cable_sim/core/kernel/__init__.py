@@ -5,6 +5,7 @@
 ``sweeps``         the shared articulated-body pieces: link kinematics and drag, the 2x2
                    articulated inertia, the inward and outward sweeps, the 2x2 end correction
                    (also used by :mod:`cable_sim.integrate.implicit.operator`)
+``contact``        seabed contact per link, exact over its length (MODEL.md round-2 terms)
 ``forward``        forward dynamics (:func:`forward_dynamics`, :func:`fd_packed`)
 ``energy``         kinetic and potential energy
 ``joint_forces``   internal joint forces (Newton recursion from the end)

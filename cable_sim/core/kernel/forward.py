@@ -42,11 +42,17 @@ load that keeps its weight). This is exact algebra and leaves every intermediate
 the line's own scale; measured against a 40-digit solve it is accurate to ~1e-15, whereas the
 dense float64 Cholesky of the ill-conditioned M is off by up to ~1e-6 at n = 60.
 
+Round-2 terms (MODEL.md; off unless the model switches them on): the seabed contact of each link
+(:mod:`cable_sim.core.kernel.contact`) enters like its drag, as a force at the centre plus a
+couple; the Morison added mass as a per-link anisotropic inertia in the inward sweep (mass
+m + m_an l along the link normal, m + m_at l along its axis: ``mn``, ``me``).
+
 All kernels take plain arrays and floats (numba cannot take the dataclass) and are compiled
 with ``cache=True``; call :func:`warmup` once before real time starts.
 
 Core layer, compiled kernel: imports numba, numpy, :mod:`cable_sim.core.kernel.sweeps`,
-:mod:`cable_sim.core.kernel.anchor`, :mod:`cable_sim.core.kernel.packing` and the core's
+:mod:`cable_sim.core.kernel.anchor`, :mod:`cable_sim.core.kernel.contact`,
+:mod:`cable_sim.core.kernel.packing` and the core's
 ``dynamics`` (``Inputs``) and ``model``.
 """
 
