@@ -24,7 +24,10 @@ For the cable, ``y = (q, v)``, ``f = (v, a(q, v))``, ``T = [[0, I], [-M^-1 K, -M
 a stage with right-hand side ``(rq, rv)`` is (as in :class:`~.schemes.Rosenbrock2`)
 ``sv = rv - M~^-1 (hg D rv + hg K (rq + hg rv))``, ``sq = rq + hg sv`` with
 ``M~ = M + hg D + hg^2 K``, ``hg = gamma h``: one factorisation and four O(n) solves and four
-force evaluations per step.
+force evaluations per step. The drag part of ``D`` is linearised at the predicted velocity
+``v + h a(q, v)`` (``predict_drag``, default): at rest the paper drag's Jacobian is zero, and
+linearised at ``v`` the first steps of a free fall treat the drag explicitly (measured at n = 80:
+unstable from 50 ms; with the prediction stable to 125 ms). Any ``W`` keeps the W-method's order.
 
 Error norm of the adaptive scheme (:class:`Ros34PW2Adaptive`): the embedded difference,
 mapped to the joints (linearised: ``dp_j = dz e_z + sum_{i<j} l_i (cos th_i, sin th_i) dth_i``,
