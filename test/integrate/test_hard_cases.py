@@ -158,7 +158,9 @@ def test_paper_anchor_emulation_is_ill_conditioned_but_stable() -> None:
 
 
 def _large_sim(integrator: str, step: float, n: int = 1000) -> Simulation:
-    scene = load_scene("mooring_line")
+    # the case is the bending damping growing with n; the seabed (issue 11) is switched off here
+    # because its contact stiffness is not yet in the O(n) implicit operator
+    scene = load_scene("mooring_line", {"seabed": False, "added_mass": False})
     sim = Simulation(scene, integrator=integrator, step=step, n_links=n)
     y = sim.y0.copy()
     y[sim.model.ndof] = 2.0  # the buoy starts heaving at 2 m/s: excites the whole line
