@@ -179,6 +179,9 @@ class StepChecks:
             reason = f"anchor constraint drift {value:.3g} m > {self.max_drift} m"
             if value > float(np.sum(self.system.model.length)):
                 reason += " (the state is blowing up; reduce the step or use an implicit integrator)"
+            else:  # the projection cannot pull a step this far back onto the constraint
+                reason += (f": the step h = {self.h:g} s is too large to keep the anchor on its "
+                           "constraint; reduce the step")
         elif status == TAUT:
             reason = (f"line pulled taut: slack 1 - |fairlead - anchor|/L = {value:.3g} < "
                       f"{self.taut_slack:g}; a straight rigid-link line between fairlead and anchor "
