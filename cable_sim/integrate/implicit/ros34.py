@@ -192,6 +192,15 @@ def _ros_step(arr: np.ndarray, par: np.ndarray, geometric: bool, predict: bool, 
     return True
 
 
+@nb.njit(cache=True, inline="always")
+def _workspace(n: int, ns: int):
+    """Scratch arrays of one compiled run (operator workspace W, S, X, geometric stiffness,
+    stage positions/velocities, work rows, new state and error) for n links and ns stages."""
+    n1 = n + 1
+    return (np.zeros((_NW, n)), np.zeros(_NS), np.zeros((2, n1)), np.zeros(n), np.zeros((ns, n1)),
+            np.zeros((ns, n1)), np.zeros((8, n1)), np.empty(2 * n1), np.empty(2 * n1))
+
+
 @nb.njit(cache=True)
 def _ros_fixed_run(arr: np.ndarray, par: np.ndarray, geometric: bool, predict: bool, h: float, u: np.ndarray,
                    eta: np.ndarray, y: np.ndarray, chk: np.ndarray, info: np.ndarray,
@@ -199,18 +208,8 @@ def _ros_fixed_run(arr: np.ndarray, par: np.ndarray, geometric: bool, predict: b
                    gamma: float) -> int:
     """``u.shape[0]`` checked fixed steps (``u[k, i]``: input at stage i of step k), in place
     on y; as :func:`cable_sim.integrate.implicit.run._implicit_run`."""
-    n = arr.shape[1]
-    n1 = n + 1
     ns = at.shape[0]
-    W = np.zeros((_NW, n))
-    S = np.zeros(_NS)
-    X = np.zeros((2, n1))
-    kgeo = np.zeros(n)
-    sq = np.zeros((ns, n1))
-    sv = np.zeros((ns, n1))
-    wk = np.zeros((8, n1))
-    yn = np.empty(2 * n1)
-    err = np.empty(2 * n1)
+    W, S, X, kgeo, sq, sv, wk, yn, err = _workspace(arr.shape[1], ns)
     for k in range(u.shape[0]):
         info[1] = k
         ok = _ros_step(arr, par, geometric, predict, h, u[k], eta[k], y, yn, err, W, S, X, kgeo, sq, sv,
@@ -315,18 +314,8 @@ def _ros_adaptive_run(arr: np.ndarray, par: np.ndarray, geometric: bool, predict
     ``chk[7]``, ``chk[10]`` are set per step from the rates (both proportional to the step).
     ``info = [force evaluations, accepted steps, value, t reached, rejected steps]``.
     """
-    n = arr.shape[1]
-    n1 = n + 1
     ns = at.shape[0]
-    W = np.zeros((_NW, n))
-    S = np.zeros(_NS)
-    X = np.zeros((2, n1))
-    kgeo = np.zeros(n)
-    sq = np.zeros((ns, n1))
-    sv = np.zeros((ns, n1))
-    wk = np.zeros((8, n1))
-    yn = np.empty(2 * n1)
-    err = np.empty(2 * n1)
+    W, S, X, kgeo, sq, sv, wk, yn, err = _workspace(arr.shape[1], ns)
     us = np.empty(ns)
     es = np.empty(ns)
     atol, rtol, safety, fmin, fmax, hmax, hmin = ctl[0], ctl[1], ctl[2], ctl[3], ctl[4], ctl[5], ctl[6]
