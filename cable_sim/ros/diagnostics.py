@@ -1,4 +1,4 @@
-"""The node's diagnostics: key/values of the run (timing, inputs, outputs, recorder) and their status.
+"""The node's diagnostics: key/values of the run (timing, inputs, outputs, seabed, recorder) and their status.
 
 May import rclpy, diagnostic_msgs and :mod:`cable_sim.ros.messages`.
 """
@@ -15,6 +15,11 @@ from cable_sim.ros.messages import build_diagnostics
 
 if TYPE_CHECKING:
     from rclpy.node import Node
+
+
+#: Diagnostic keys of the seabed outputs (scenes with a seabed) and their index in the values of
+#: :func:`cable_sim.ros.messages.seabed_contact_values`.
+SEABED_KEYS = {"touchdown_arc_length": 0, "touchdown_x": 1, "laid_length": 2, "seabed_reaction": 3}
 
 
 def _repr_or_nan(out, field: str) -> str:
@@ -61,6 +66,10 @@ class NodeDiagnostics:
             "paused": str(run.paused),
             "failure": run.failure,
         }
+        if node.sim.model.seabed:
+            seabed = node.outputs.seabed_values(out) if out is not None else None
+            for key, i in SEABED_KEYS.items():
+                v[key] = repr(float(seabed[i])) if seabed is not None else "nan"
         for name, count in node.outputs.published.items():
             v[f"published_{name}"] = str(count)
         if node.recorder is not None:

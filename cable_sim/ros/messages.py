@@ -13,6 +13,10 @@ from typing import Any
 import numpy as np
 
 from cable_sim.core.dynamics import relative_angles
+from cable_sim.core.seabed import seabed_outputs
+
+#: Labels of the ``seabed_contact`` values, in their order (unit in each name).
+SEABED_LABELS = ("touchdown_arc_length_m", "touchdown_x_m", "laid_length_m", "seabed_reaction_N")
 
 
 def joint_state_arrays(out: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -68,12 +72,75 @@ def build_float_array(values: Iterable[float]):
     return Float64MultiArray(data=[float(v) for v in values])
 
 
+def seabed_contact_values(out: Any, model: Any) -> np.ndarray | None:
+    """The ``seabed_contact`` values of a state, in the order of :data:`SEABED_LABELS`.
+
+    Touchdown arc length from the line's end (the anchor) [m], touchdown x [m], laid length [m]
+    and total vertical seabed reaction [N] (:func:`cable_sim.core.seabed.seabed_outputs`). When
+    no part of the line is below the bed level, the touchdown is at the line's end (arc length
+    0, x of the last joint) and laid length and reaction are 0: every value is finite.
+
+    Parameters
+    ----------
+    out : cable_sim.scene.simulation.Outputs
+        The state (``q``, ``qd``, ``joint_positions``).
+    model : cable_sim.core.model.CableModel
+        The simulated model.
+
+    Returns
+    -------
+    ndarray (4,) or None
+        None when the model has no seabed.
+    """
+    if not model.seabed:
+        return None
+    s = seabed_outputs(model, out.q, out.qd)
+    if not np.isfinite(s.touchdown_x):  # nothing below the bed level
+        return np.array([0.0, float(out.joint_positions[-1, 0]), 0.0, 0.0])
+    return np.array([s.touchdown_arc, s.touchdown_x, s.laid_length, s.reaction])
+
+
+def build_seabed_contact(values: Iterable[float]):
+    """std_msgs/Float64MultiArray of the seabed outputs: one dimension of size 4 whose label names
+    the values in order (:data:`SEABED_LABELS`, units in the names)."""
+    from std_msgs.msg import Float64MultiArray, MultiArrayDimension
+
+    msg = Float64MultiArray(data=[float(v) for v in values])
+    msg.layout.dim = [MultiArrayDimension(label=",".join(SEABED_LABELS), size=len(SEABED_LABELS),
+                                          stride=len(SEABED_LABELS))]
+    return msg
+
+
 #: (ns, id) of every marker of :func:`build_markers`: one marker per namespace, ids fixed for a run.
-MARKER_IDS = {"cable": 0, "end": 1, "platform": 2, "water": 3}
+MARKER_IDS = {"cable": 0, "end": 1, "platform": 2, "water": 3, "seabed": 4, "touchdown": 5}
 
 
-def build_markers(out: Any, model: Any, stamp_ns: int, frame_id: str = "world", delete_all: bool = False):
-    """visualization_msgs/MarkerArray: cable line strip coloured by tension, end, platform, water.
+def _seabed_markers(hdr: Any, model: Any, values: np.ndarray, x0: float, x1: float) -> list[Any]:
+    """The seabed line at the bed's z and the touchdown sphere (DELETE while nothing touches)."""
+    from geometry_msgs.msg import Point
+    from std_msgs.msg import ColorRGBA
+    from visualization_msgs.msg import Marker
+
+    zb = float(model.seabed_z)
+    bed = Marker(header=hdr, ns="seabed", type=Marker.LINE_STRIP, action=Marker.ADD)
+    bed.pose.orientation.w = 1.0
+    bed.scale.x = 0.5
+    bed.points = [Point(x=x0, z=zb), Point(x=x1, z=zb)]
+    bed.color = ColorRGBA(r=0.45, g=0.35, b=0.2, a=1.0)
+    touching = values[2] > 0.0
+    td = Marker(header=hdr, ns="touchdown", type=Marker.SPHERE,
+                action=Marker.ADD if touching else Marker.DELETE)
+    td.pose.position.x, td.pose.position.z = float(values[1]), zb
+    td.pose.orientation.w = 1.0
+    td.scale.x = td.scale.y = td.scale.z = 3.0
+    td.color = ColorRGBA(r=1.0, g=0.85, b=0.0, a=1.0)
+    return [bed, td]
+
+
+def build_markers(out: Any, model: Any, stamp_ns: int, frame_id: str = "world", delete_all: bool = False,
+                  seabed: np.ndarray | None = None):
+    """visualization_msgs/MarkerArray: cable line strip coloured by tension, end, platform, water,
+    and with a seabed the bed line and the touchdown point.
 
     RViz conventions: one (ns, id) per marker, the same every message (:data:`MARKER_IDS`), so each
     message replaces the previous one in place; ``lifetime`` 0 (kept until replaced: a paused run
@@ -81,6 +148,11 @@ def build_markers(out: Any, model: Any, stamp_ns: int, frame_id: str = "world", 
     there is nothing to re-transform). ``delete_all`` puts a ``DELETEALL`` marker (empty ns: every
     namespace) first, which RViz applies before the markers after it in the same array: the node
     sends it with its first markers and after a reset, so markers of an earlier run never linger.
+
+    With a seabed (``model.seabed``): ns ``seabed``, a line strip at the bed's z over the same x
+    range as the water line; ns ``touchdown``, a sphere at the touchdown point (touchdown x, bed
+    z), whose action is ``DELETE`` while no part of the line is below the bed level. ``seabed``
+    are the :func:`seabed_contact_values` of ``out`` (computed here when not given).
     """
     from geometry_msgs.msg import Point
     from std_msgs.msg import ColorRGBA
@@ -115,6 +187,9 @@ def build_markers(out: Any, model: Any, stamp_ns: int, frame_id: str = "world", 
     water.points = [Point(x=x0, z=eta), Point(x=x1, z=eta)]
     water.color = ColorRGBA(r=0.1, g=0.4, b=1.0, a=0.6)
     markers = [line, end, plat, water]
+    if model.seabed:
+        values = seabed_contact_values(out, model) if seabed is None else seabed
+        markers += _seabed_markers(hdr, model, values, x0, x1)
     for mk in markers:
         mk.id = MARKER_IDS[mk.ns]
         mk.frame_locked = False

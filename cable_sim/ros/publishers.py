@@ -37,8 +37,10 @@ from cable_sim.ros.messages import (
     build_joint_state,
     build_markers,
     build_robot_description,
+    build_seabed_contact,
     build_wrench,
     clock_message,
+    seabed_contact_values,
 )
 from cable_sim.ros.tf_output import TfRecording
 from cable_sim.ros.urdf import urdf_for_model
@@ -49,7 +51,7 @@ if TYPE_CHECKING:
 
 #: Topics relative to the node's namespace (``/clock`` is global).
 TOPICS = ("joint_states", "cable_markers", "fairlead_tension", "anchor_force", "line_tension",
-          "diagnostics", "applied_inputs", "heave_force", "wave_elevation")
+          "diagnostics", "applied_inputs", "heave_force", "wave_elevation", "seabed_contact")
 INPUT_TOPICS = ("heave_force", "wave_elevation")
 
 #: QoS of the node's streams (every output but robot_description) and inputs.
@@ -84,6 +86,8 @@ class NodeOutputs:
         if node.sim.model.end != 0:
             self.pub["anchor_force"] = pub(WrenchStamped, "anchor_force", qos)
         self.pub["line_tension"] = pub(Float64MultiArray, "line_tension", qos)
+        if node.sim.model.seabed:
+            self.pub["seabed_contact"] = pub(Float64MultiArray, "seabed_contact", qos)
         self.pub["diagnostics"] = pub(DiagnosticArray, "diagnostics", qos)
         self.pub["applied_inputs"] = pub(Float64MultiArray, "applied_inputs", qos)
         self.pub["robot_description"] = pub(String, "robot_description", DESCRIPTION_QOS)
@@ -103,6 +107,8 @@ class NodeOutputs:
         #: Start the next MarkerArray with DELETEALL (first markers, and after a reset).
         self._clear_markers = True
         self.last: Outputs | None = None
+        #: The outputs whose seabed values were computed last, and those values.
+        self._seabed: tuple[Outputs | None, np.ndarray | None] = (None, None)
         #: Called with ``(outputs, stamp)`` after every publication of outputs: the place where a
         #: further view of the same state (e.g. /tf in the recording, a live viewer) plugs in.
         self.listeners: list[Callable[[Outputs, int], None]] = []
@@ -165,6 +171,15 @@ class NodeOutputs:
             return None
         return out
 
+    def seabed_values(self, out: Outputs) -> np.ndarray | None:
+        """The ``seabed_contact`` values of ``out`` (None without a seabed), computed once per
+        outputs (markers, topic and diagnostics share them)."""
+        done, values = self._seabed
+        if done is not out:
+            values = seabed_contact_values(out, self.node.sim.model)
+            self._seabed = (out, values)
+        return values
+
     def publish_joint_states(self) -> None:
         """Joint states at the current step (lockstep: once per control period)."""
         out = self.current()
@@ -180,16 +195,23 @@ class NodeOutputs:
         if out is None:
             return
         stamp, frame = self.stamp(), node.frame_id
+        seabed = self.seabed_values(out) if (mk or tn or force_all) else None
+        if seabed is not None and not np.all(np.isfinite(seabed)):
+            node.run.fail("non-finite seabed outputs (not published)")
+            return
         if js or force_all:
             self.publish("joint_states", build_joint_state(out, stamp, frame), stamp)
         if mk or force_all:
             clear, self._clear_markers = self._clear_markers, False
-            self.publish("cable_markers", build_markers(out, node.sim.model, stamp, frame, clear), stamp)
+            self.publish("cable_markers", build_markers(out, node.sim.model, stamp, frame, clear, seabed),
+                         stamp)
         if tn or force_all:
             self.publish("fairlead_tension", build_wrench(-out.fairlead_force, stamp, frame), stamp)
             if "anchor_force" in self.pub:
                 self.publish("anchor_force", build_wrench(-out.anchor_force, stamp, frame), stamp)
             self.publish("line_tension", build_float_array(out.axial_tension), stamp)
+            if seabed is not None:
+                self.publish("seabed_contact", build_seabed_contact(seabed), stamp)
         for listener in self.listeners:
             listener(out, stamp)
         problems = node.sim.health(out)

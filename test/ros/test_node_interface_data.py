@@ -4,7 +4,7 @@ For every shipped scene, a node in this process must declare exactly the paramet
 lists (same ROS type, read-only where the file says so, the file's description as the
 descriptor's), use the file's defaults for the node settings, and publish / subscribe / serve
 exactly the file's topics and services with the file's types (anchor_force only for anchored
-ends, /clock only outside real time).
+ends, seabed_contact only with a seabed, /clock only outside real time).
 """
 
 from __future__ import annotations
@@ -89,6 +89,8 @@ def test_topics_and_services_match(node):
     want_pubs = {full(t["topic"]): [t["type"]] for t in DOC["publications"]}
     if node.sim.model.end == 0:
         want_pubs.pop("/anchor_force")
+    if not node.sim.model.seabed:
+        want_pubs.pop("/seabed_contact")
     if node.clock_mode == "realtime":
         want_pubs.pop("/clock")
     assert {k: v for k, v in pubs.items() if k not in ROS_BUILTIN_TOPICS} == want_pubs

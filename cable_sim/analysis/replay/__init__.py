@@ -6,7 +6,9 @@ Everything here works on the file alone (``mcap`` + ``mcap_ros2`` decoder, no RO
   rebuilds the scene from the ``"scene"`` metadata record; :mod:`.cdr` holds the hand-written
   decoders of the large message types;
 - :func:`summary` (:mod:`.report`) prints scene, duration, achieved real-time factor, max/RMS
-  fairlead tension, max tip excursion, rejected inputs and overruns; :func:`export_csv`;
+  fairlead tension, max tip excursion, rejected inputs and overruns, and with a seabed the
+  touchdown excursion (x range), touchdown arc-length range and laid-length range
+  (:func:`seabed_values`); :func:`export_csv`;
 - :func:`plot_frames` (configurations as frames, like Figs. 9 and 10 of Pouzada & Gomes),
   :func:`plot_tension` (:mod:`.plots`), :func:`animate` (GIF, :mod:`.gif`);
 - :func:`resimulate` (:mod:`.resim`) runs :class:`cable_sim.scene.simulation.Simulation` again
@@ -32,11 +34,11 @@ from .gif import animate, gif_frame_indices
 from .headless import record_headless
 from .load import LOADABLE, PROGRESS_MIN_MESSAGES, TOPICS, Run, Series, load_run, read_metadata, scene_of
 from .plots import plot_frames, plot_tension
-from .report import export_csv, summary, summary_values
+from .report import export_csv, seabed_values, summary, summary_values
 from .resim import Resim, compare, resimulate
 
 __all__ = [
     "LOADABLE", "PROGRESS_MIN_MESSAGES", "TOPICS", "Resim", "Run", "Series", "animate", "compare",
     "export_csv", "gif_frame_indices", "load_run", "main", "plot_frames", "plot_tension", "read_metadata",
-    "record_headless", "resimulate", "scene_of", "summary", "summary_values",
+    "record_headless", "resimulate", "scene_of", "seabed_values", "summary", "summary_values",
 ]

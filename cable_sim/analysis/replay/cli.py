@@ -82,7 +82,7 @@ def _topics(a: argparse.Namespace) -> set[str]:
     """Decode only what the requested outputs use (joint states are always read)."""
     topics = {"joint_states"}
     if not a.quiet:
-        topics |= {"fairlead_tension", "diagnostics"}
+        topics |= {"fairlead_tension", "diagnostics", "seabed_contact"}
     if a.tension:
         topics |= {"fairlead_tension", "anchor_force"}
     if a.csv or _wants_resim(a):

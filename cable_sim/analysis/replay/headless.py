@@ -17,8 +17,10 @@ from cable_sim.ros.messages import (
     build_float_array,
     build_joint_state,
     build_markers,
+    build_seabed_contact,
     build_wrench,
     clock_message,
+    seabed_contact_values,
 )
 from cable_sim.scene.scenes import Scene, load_scene
 
@@ -82,20 +84,24 @@ def _input_schedule(inputs: Iterable[tuple[float, str, float]], h: float
 
 def _publish_outputs(sim: Any, pub: _Outlet, want: list[bool], stamp: int, frame_id: str,
                      t0: float) -> None:
-    """The outputs due at this step: [joint states + clock, markers, tensions, diagnostics]."""
+    """The outputs due at this step: [joint states + clock, markers, tensions (+ seabed_contact),
+    diagnostics]."""
     if not any(want):
         return
     out = sim.outputs()
+    seabed = seabed_contact_values(out, sim.model) if want[1] or want[2] else None
     if want[0]:
         pub("clock", clock_message(stamp), stamp)
         pub("joint_states", build_joint_state(out, stamp, frame_id), stamp)
     if want[1]:
-        pub("cable_markers", build_markers(out, sim.model, stamp, frame_id), stamp)
+        pub("cable_markers", build_markers(out, sim.model, stamp, frame_id, seabed=seabed), stamp)
     if want[2]:
         pub("fairlead_tension", build_wrench(-out.fairlead_force, stamp, frame_id), stamp)
         if sim.model.end != 0:
             pub("anchor_force", build_wrench(-out.anchor_force, stamp, frame_id), stamp)
         pub("line_tension", build_float_array(out.axial_tension), stamp)
+        if seabed is not None:
+            pub("seabed_contact", build_seabed_contact(seabed), stamp)
     if want[3]:
         wall = time.perf_counter() - t0
         st = pub.rec.stats
@@ -136,10 +142,11 @@ def record_headless(
     """Simulate ``scene`` for ``duration`` s without ROS and record what the node would publish.
 
     Topics, message types, stamps and metadata follow the shared interface (joint_states,
-    cable_markers, fairlead_tension, anchor_force, line_tension, diagnostics, applied_inputs,
-    clock, and received heave_force / wave_elevation). ``inputs`` are (t [s], topic
-    ``"heave_force"`` or ``"wave_elevation"``, value) "received" messages: each is recorded on
-    its topic at the step it arrives and held from that step on (``applied_inputs`` recorded).
+    cable_markers, fairlead_tension, anchor_force, line_tension, seabed_contact (scenes with a
+    seabed), diagnostics, applied_inputs, clock, and received heave_force / wave_elevation).
+    ``inputs`` are (t [s], topic ``"heave_force"`` or ``"wave_elevation"``, value) "received"
+    messages: each is recorded on its topic at the step it arrives and held from that step on
+    (``applied_inputs`` recorded).
     With ``path=None`` every message is built but nothing is recorded (benchmark baseline).
     ``publish(topic, msg_or_bytes)``, if given, is called for every message (e.g. a real rclpy
     publisher); with ``serialize_once`` the message is serialised once

@@ -25,11 +25,15 @@ from .cdr import fast_decoders
 
 #: Topic base names the node publishes / subscribes (relative; recorded with namespace).
 TOPICS = ("joint_states", "cable_markers", "fairlead_tension", "anchor_force", "line_tension",
-          "diagnostics", "applied_inputs", "heave_force", "wave_elevation", "clock")
+          "diagnostics", "applied_inputs", "heave_force", "wave_elevation", "clock", "seabed_contact")
 
 #: Topics :func:`load_run` can decode (base names).
 LOADABLE = frozenset({"joint_states", "fairlead_tension", "anchor_force", "line_tension", "diagnostics",
-                      "applied_inputs", "heave_force", "wave_elevation"})
+                      "applied_inputs", "heave_force", "wave_elevation", "seabed_contact"})
+
+#: Width of a ``seabed_contact`` value: touchdown arc length [m], touchdown x [m], laid length [m],
+#: seabed reaction [N] (msg_configs/interface.yaml).
+SEABED_WIDTH = 4
 
 #: Fewer messages to read than this: no progress lines.
 PROGRESS_MIN_MESSAGES = 10_000
@@ -123,6 +127,9 @@ class Run:
         Last value of every diagnostic key, as text.
     counts : dict of str -> int
         Messages per topic.
+    seabed : Series
+        ``seabed_contact`` values (S, 4): touchdown arc length from the anchor [m], touchdown x
+        [m], laid length [m], seabed reaction [N] (empty without a seabed or when not read).
     """
 
     path: Path
@@ -146,6 +153,7 @@ class Run:
     diagnostics: dict[str, Series] = field(default_factory=dict)
     diagnostics_text: dict[str, str] = field(default_factory=dict)
     counts: dict[str, int] = field(default_factory=dict)
+    seabed: Series = field(default_factory=lambda: _series([], [], SEABED_WIDTH))
 
     @property
     def n_links(self) -> int:
@@ -220,7 +228,8 @@ class _Collector:
         self.js: tuple[list[int], list[Any], list[Any], list[Any]] = ([], [], [], [])
         #: (times [ns], values): header stamps for the wrenches, log times for the rest
         self.series: dict[str, tuple[list[int], list[Any]]] = {
-            k: ([], []) for k in ("fairlead_tension", "anchor_force", "line_tension", "applied_inputs")}
+            k: ([], []) for k in ("fairlead_tension", "anchor_force", "line_tension", "applied_inputs",
+                                  "seabed_contact")}
         self.received: dict[str, tuple[list[int], list[float]]] = {"heave_force": ([], []),
                                                                    "wave_elevation": ([], [])}
         self.diag: dict[str, tuple[list[int], list[float]]] = {}
@@ -236,10 +245,10 @@ class _Collector:
             ts, vs = self.series[topic_base]
             ts.append(_stamp_ns(msg.header.stamp))
             vs.append((msg.wrench.force.x, msg.wrench.force.z))
-        elif topic_base in ("line_tension", "applied_inputs"):
+        elif topic_base in ("line_tension", "applied_inputs", "seabed_contact"):
             ts, vs = self.series[topic_base]
             ts.append(log_time)
-            vs.append(msg.data if topic_base == "line_tension" else list(msg.data)[:2])
+            vs.append(list(msg.data)[:2] if topic_base == "applied_inputs" else msg.data)
         elif topic_base in self.received:
             self.received[topic_base][0].append(log_time)
             self.received[topic_base][1].append(float(msg.data))
@@ -282,6 +291,7 @@ class _Collector:
             received={k: _series(*v, None) for k, v in self.received.items()},
             diagnostics={k: _series(*v, None) for k, v in self.diag.items()},
             diagnostics_text=self.diag_text, counts=counts,
+            seabed=_series(*s["seabed_contact"], SEABED_WIDTH),
         )
 
 

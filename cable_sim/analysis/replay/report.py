@@ -19,8 +19,32 @@ def rms(x: np.ndarray) -> float:
     return float(np.sqrt(np.mean(np.square(x)))) if len(x) else float("nan")
 
 
+def seabed_values(run: Run) -> dict[str, Any]:
+    """Ranges of the recorded ``seabed_contact`` values (empty dict when there are none).
+
+    ``touchdown_x_min``/``max`` [m] and ``touchdown_excursion`` (max - min) [m],
+    ``touchdown_arc_min``/``max`` [m] (arc length from the anchor), ``laid_length_min``/``max``
+    [m], ``seabed_reaction_max`` [N], ``seabed_samples`` and ``seabed_contact_samples`` (those
+    with a laid length > 0). Samples without contact count with the published convention
+    (touchdown at the anchor, laid length 0).
+    """
+    v = run.seabed.v
+    if not len(v):
+        return {}
+    td_arc, td_x, laid, reaction = v[:, 0], v[:, 1], v[:, 2], v[:, 3]
+    return {
+        "touchdown_x_min": float(td_x.min()), "touchdown_x_max": float(td_x.max()),
+        "touchdown_excursion": float(td_x.max() - td_x.min()),
+        "touchdown_arc_min": float(td_arc.min()), "touchdown_arc_max": float(td_arc.max()),
+        "laid_length_min": float(laid.min()), "laid_length_max": float(laid.max()),
+        "seabed_reaction_max": float(reaction.max()),
+        "seabed_samples": int(len(v)), "seabed_contact_samples": int(np.count_nonzero(laid > 0.0)),
+    }
+
+
 def summary_values(run: Run) -> dict[str, Any]:
-    """The numbers :func:`summary` prints."""
+    """The numbers :func:`summary` prints (with :func:`seabed_values` when the run recorded
+    ``seabed_contact``)."""
     ten = run.fairlead_tension
     tip0 = run.tip[0]
     exc = np.linalg.norm(run.tip - tip0, axis=1)
@@ -44,6 +68,7 @@ def summary_values(run: Run) -> dict[str, Any]:
         "rejected_inputs": int(rej.v[-1]) if rej is not None and len(rej) else 0,
         "overruns": int(ovr.v[-1]) if ovr is not None and len(ovr) else 0,
         "messages": dict(run.counts),
+        **seabed_values(run),
     }
 
 
@@ -61,8 +86,17 @@ def summary(run: Run) -> str:
         f"(any joint: {s['joint_excursion_max']:.4g} m)",
         f"rejected      {s['rejected_inputs']} inputs",
         f"overruns      {s['overruns']}",
-        "messages      " + ", ".join(f"{k} {v}" for k, v in sorted(s["messages"].items())),
     ]
+    if "touchdown_x_min" in s:
+        lines += [
+            f"touchdown     x {s['touchdown_x_min']:.6g} .. {s['touchdown_x_max']:.6g} m (excursion "
+            f"{s['touchdown_excursion']:.4g} m); arc length from the anchor {s['touchdown_arc_min']:.6g} "
+            f".. {s['touchdown_arc_max']:.6g} m",
+            f"laid length   {s['laid_length_min']:.6g} .. {s['laid_length_max']:.6g} m (line on the bed in "
+            f"{s['seabed_contact_samples']} of {s['seabed_samples']} samples; seabed reaction max "
+            f"{s['seabed_reaction_max']:.6g} N)",
+        ]
+    lines.append("messages      " + ", ".join(f"{k} {v}" for k, v in sorted(s["messages"].items())))
     return "\n".join(lines)
 
 
