@@ -29,6 +29,39 @@ def _sat(x: float) -> float:
     return x
 
 
+@nb.njit(cache=True, inline="always")
+def _clip_half_line(c0: float, c1: float, a: float, b: float) -> tuple[float, float]:
+    """[a, b] intersected with {s : c0 + c1 s > 0} (empty: a == b)."""
+    if c1 > 0.0:
+        a = max(a, -c0 / c1)
+    elif c1 < 0.0:
+        b = min(b, -c0 / c1)
+    elif c0 <= 0.0:
+        b = a
+    if b < a:
+        b = a
+    return a, b
+
+
+@nb.njit(cache=True, inline="always")
+def touching_interval(
+    pz: float, vpz: float, th: float, w: float, length: float, zb: float, k: float, c: float
+) -> tuple[float, float]:
+    """The part [a, b] of a link (s from its upper joint) where the bed pushes on it: the
+    penetration ``delta(s) = zb - z(s) > 0`` and the normal force ``k delta - c zdot > 0``
+    (a == b when nowhere). Both are linear in s on a straight link, so this is an interval;
+    it is where :func:`link_contact_nb` integrates the normal force, and the normal force's
+    Jacobian is ``-int_a^b (k J_z^T J_z) ds`` (positions), ``-int_a^b (c J_z^T J_z) ds``
+    (velocities), up to the terms the implicit operator leaves out (see
+    :mod:`cable_sim.integrate.implicit.operator`)."""
+    d0 = zb - pz
+    d1 = math.cos(th)
+    if d0 <= 0.0 and d0 + d1 * length <= 0.0:
+        return 0.0, 0.0
+    a, b = _clip_half_line(d0, d1, 0.0, length)
+    return _clip_half_line(k * d0 - c * vpz, k * d1 - c * w * math.sin(th), a, b)
+
+
 @nb.njit(cache=True)
 def link_contact_nb(
     px: float, pz: float, vpx: float, vpz: float, th: float, w: float, length: float,

@@ -16,7 +16,10 @@ modified chain: every joint gets an "armature" ``beta_i = hg c_i + hg^2 k_i`` on
 angle, the platform an extra mass ``hg c_m + hg^2 k_m``, every link an extra rotational inertia
 ``hg 2 gamma_i l_i^2/4 |theta_dot_i| + hg^2 kappa_i`` (paper drag, tension stiffness) and an
 anisotropic extra mass ``hg G_i`` at its centre, ``G_i = 2 c_n |v.t| t t^T + 2 c_t |v.e| e e^T``
-(the Jacobian of the Morison force, v the centre velocity relative to the water). Because the
+(the Jacobian of the Morison force, v the centre velocity relative to the water), and, where
+the seabed pushes on a link, a vertical-only mass of density ``hg c_b + hg^2 k_b`` over the
+pushed part of the link (the contact force's Jacobian, see
+:mod:`cable_sim.integrate.implicit.operator`). Because the
 armature couples a link's rotation to its parent's, the articulated inertia seen at a pin is
 3x3 (couple + force against parent rotation + pin acceleration) instead of the 2x2 of
 :mod:`cable_sim.core.kernel`; the recursion is otherwise the same and stays O(n) (see

@@ -5,8 +5,22 @@ product.
 armature ``beta_i = hg c_i + hg^2 k_i``, extra platform mass, extra link rotational inertia and
 anisotropic extra centre masses. With Morison added mass (MODEL.md "Round 2 terms") ``M`` includes
 it: the link mass seen along the normal is m + m_an l (rotation and normal motion) and along the
-axis m + m_at l (packed rows 12 and 13; both m without added mass). The seabed contact's
-stiffness is not in this O(n) operator (see the README, "Seabed and added mass").
+axis m + m_at l (packed rows 12 and 13; both m without added mass).
+
+Seabed contact: where the bed pushes on link i (the interval ``[a, b]`` of s from its upper
+joint where the penetration and the force ``k_b delta - c_b zdot`` are both positive,
+:func:`cable_sim.core.kernel.contact.touching_interval`, the interval the kernel integrates the
+force over), the force's Jacobian is ``-int_a^b c_b J_z^T J_z ds`` (velocities) and
+``-int_a^b k_b J_z^T J_z ds`` (positions, with ``J_z(s) = dz(s)/dq``). So ``hg D + hg^2 K``
+gains ``int_a^b kap J_z^T J_z ds``, ``kap = hg c_b + hg^2 k_b``: a mass of density kap that
+resists only vertical acceleration, on part of the link. Per link that is a generalised inertia
+about the pin (mass ``kap (b - a)``, first and second moments of ``[a, b]``, z direction only,
+not centred), added to the link's own in :func:`_op_inward`. Left out (the operator of a
+W-method need not be the exact Jacobian): the part of ``-dQ_b/dq`` from turning ``J^T``
+(diagonal in absolute angles, like gravity's; the bed's reaction lowers the tension and with it
+the tension stiffness), the damper's ``d zdot/dq`` (velocity times curvature), the jump of the
+damper's force where a link moving down enters the bed, and friction (off by default).
+
 The articulated inertia seen at a pin is then 3x3 instead of
 the 2x2 of the forward dynamics; the inward recursion (:func:`_op_inward`) is specific to it,
 everything else -- link kinematics, drag velocities, the link-frame transforms, the outward
@@ -25,6 +39,7 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
+from cable_sim.core.kernel.contact import touching_interval
 from cable_sim.core.kernel.packing import pack_arrays
 from cable_sim.core.kernel.sweeps import (
     TINY,
@@ -44,9 +59,10 @@ from cable_sim.core.kernel.sweeps import (
 )
 from cable_sim.core.model import CableModel
 
-# rows of the per-link workspace W (n columns)
-_W_COS, _W_SIN, _W_D, _W_UX, _W_UZ, _W_BETA, _W_ROT, _W_GT, _W_GE, _W_BCN, _W_DROT, _W_KGEO = range(12)
-_NW = 12
+# rows of the per-link workspace W (n columns); _W_CA, _W_CB: the link's seabed contact interval
+(_W_COS, _W_SIN, _W_D, _W_UX, _W_UZ, _W_BETA, _W_ROT, _W_GT, _W_GE, _W_BCN, _W_DROT, _W_KGEO,
+ _W_CA, _W_CB) = range(14)
+_NW = 14
 # entries of the scalar workspace S
 _S_BETA0, _S_AZZ, _S_J00, _S_J01, _S_J10, _S_J11, _S_MODE, _S_MC = range(8)
 _NS = 8
@@ -95,16 +111,52 @@ def _link_terms(arr: np.ndarray, par: np.ndarray, q: np.ndarray, qd: np.ndarray,
             W[_W_GE, i] = hg * 2.0 * ct[i] * abs(ve)
             vx, vz = next_pin_velocity(vx, vz, l[i], c, s, w)
         W[_W_ROT, i] = W[_W_DROT, i] + hg * W[_W_KGEO, i]
+    _contact_terms(arr, par, q, qd, W)
 
 
 @nb.njit(cache=True, inline="always")
-def _op_inward(arr: np.ndarray, W: np.ndarray, mload: float) -> float:
+def _contact_terms(arr: np.ndarray, par: np.ndarray, q: np.ndarray, qd: np.ndarray,
+                   W: np.ndarray) -> None:
+    """Each link's seabed contact interval ``[a, b]`` (where the bed pushes on it, from
+    :func:`cable_sim.core.kernel.contact.touching_interval`) into W; ``a = b = 0`` without."""
+    n = arr.shape[1]
+    l = arr[0]
+    W[_W_CA] = 0.0
+    W[_W_CB] = 0.0
+    if par[17] == 0.0:
+        return
+    zb = par[18]
+    kb = arr[8]
+    cb = arr[9]
+    pz = q[0]
+    vz = qd[0]
+    for i in range(n):
+        c = W[_W_COS, i]
+        s = W[_W_SIN, i]
+        w = qd[i + 1]
+        W[_W_CA, i], W[_W_CB, i] = touching_interval(pz, vz, q[i + 1], w, l[i], zb, kb[i], cb[i])
+        pz -= l[i] * c
+        vz += l[i] * s * w
+
+
+@nb.njit(cache=True, inline="always")
+def _contact_moments(a: float, b: float) -> tuple[float, float, float]:
+    """``int_a^b (1, s, s^2) ds`` written without cancellation."""
+    h = b - a
+    return h, 0.5 * h * (a + b), h * ((a + b) * (a + b) + a * a + b * b) / 6.0
+
+
+@nb.njit(cache=True, inline="always")
+def _op_inward(arr: np.ndarray, W: np.ndarray, mload: float, hg: float) -> float:
     """The 3x3 articulated inertias ``[[c, w^T], [w, A]]``, tip to platform; fills ``D_i`` and
     ``u_i`` (world frame) in W and returns the platform's ``A_zz`` (see :func:`_op_factor`)."""
     n = arr.shape[1]
     l = arr[0]
     m = arr[12]  # link mass seen along the normal (m + m_an l with added mass)
     ma = arr[13]  # and along the axis (m + m_at l)
+    kb = arr[8]  # seabed stiffness and damping per length (contact interval in W)
+    cb = arr[9]
+    hg2 = hg * hg
     cth = W[_W_COS]
     sth = W[_W_SIN]
     beta = W[_W_BETA]
@@ -126,20 +178,49 @@ def _op_inward(arr: np.ndarray, W: np.ndarray, mload: float) -> float:
         mt = mi + W[_W_GT, i]
         me = ma[i] + W[_W_GE, i]
         bi = beta[i]
-        rp = (rot[i] + bi) * il2
-        dn = mi / 12.0 + rp + 0.25 * mt + cc * il2 + 2.0 * wt / li + p_tt  # D / l^2
+        ip = mi / 12.0 + (rot[i] + bi) * il2  # rotational inertia about the centre / l^2
+        # seabed: a world-z mass of density kap = hg c_b + hg^2 k_b on the contact interval;
+        # in the t direction (z.t = s) its mass, moments / l, l^2 and the centred forms
+        za, zb_ = W[_W_CA, i], W[_W_CB, i]
+        mz = 0.0
+        s1 = 0.0
+        q0 = 0.0
+        q1 = 0.0
+        q2 = 0.0
+        qc = 0.0
+        qv = 0.0
+        qm = 0.0
+        qq = 0.0
+        if zb_ > za:
+            kap = hg * cb[i] + hg2 * kb[i]
+            h0, h1, h2 = _contact_moments(za, zb_)
+            mz = kap * h0
+            s1 = kap * h1
+            ks = kap * s * s
+            q0 = ks * h0
+            q1 = ks * h1 / li
+            q2 = ks * h2 * il2
+            qc = ks * _contact_moments(za - 0.5 * li, zb_ - 0.5 * li)[2] * il2  # about the centre
+            qv = ks * ks * h0 * h0 * h0 * h0 * il2 / 12.0  # q0 q2 - q1^2
+            qm = q0 * (1.0 - 0.5 * (za + zb_) / li)  # q0 - q1
+            qq = ks * _contact_moments(1.0 - zb_ / li, 1.0 - za / li)[2] * li  # q0 + q2 - 2 q1
+        cw = cc * il2
+        ww = wt / li
+        dn = ip + 0.25 * mt + q2 + cw + 2.0 * ww + p_tt  # D / l^2
         d = li * li * dn
-        ut = 0.5 * li * mt + wt + li * p_tt
-        ue = we + li * r_te
-        a_tt = ((mt + p_tt) * (mi / 12.0 + rp) + mt * (cc * il2 + wt / li + 0.25 * p_tt)
-                + (p_tt * cc - wt * wt) * il2) / dn
-        axx, axz, azz = to_world(a_tt, r_te - ut * ue / d, me + s_ee - ue * ue / d, c, s)
+        ut = li * (0.5 * mt + q1 + p_tt) + wt
+        ue = we + li * r_te - s1 * s * c
+        m0 = mt + q0
+        a_tt = (m0 * ip + mt * qc + qv + m0 * cw + 2.0 * ww * (0.5 * mt + qm)
+                + p_tt * (ip + 0.25 * mt + qq) + (p_tt * cw - ww * ww)) / dn
+        axx, axz, azz = to_world(a_tt, r_te - mz * s * c - ut * ue / d,
+                                 me + mz * c * c + s_ee - ue * ue / d, c, s)
         uxw, uzw = from_link_frame(ut, ue, c, s)
         W[_W_D, i] = d
         W[_W_UX, i] = uxw
         W[_W_UZ, i] = uzw
         # rotational coupling passed to the parent (zero without armature)
-        dnb = li * li * (mi / 12.0 + rot[i] * il2 + 0.25 * mt + cc * il2 + 2.0 * wt / li + p_tt)
+        dnb = li * li * (mi / 12.0 + rot[i] * il2 + 0.25 * mt + q2 + cw + 2.0 * ww + p_tt)
         cc = bi * dnb / d
         wx = bi * uxw / d
         wz = bi * uzw / d
@@ -208,7 +289,11 @@ def _op_factor(arr: np.ndarray, par: np.ndarray, q: np.ndarray, qd: np.ndarray, 
         A'  = diag_te(m+g_t, m+g_e) + A - u u^T / D,   w' = beta u / D,  c' = beta (D - beta) / D
 
     with ``A'_tt`` assembled from non-negative terms (no cancellation; it reduces to the fast
-    kernel's ``a_tt`` when beta = rho = g = 0). Forward sweep:
+    kernel's ``a_tt`` when beta = rho = g = 0). The seabed contact's vertical mass (density
+    kap on ``[a, b]``; in the link frame z = sin(theta) t - cos(theta) e) adds its moments
+    ``kap int (1, s, s^2)`` to the link's (rotation: ``sin^2 int s^2``; coupling:
+    ``sin int s z``; pin: ``int z z^T``); ``A'_tt`` stays a sum of non-negative terms (centred
+    moments of the interval). Forward sweep:
     ``alpha_i = (beta_i alpha_{i-1} - u_i . a_{i-1} - b_i) / D_i``, ``a_i = a_{i-1} + l t alpha_i``.
 
     The two unit end-force solves ``X = M~^-1 J^T`` and ``J X`` are done here (anchored end, or
@@ -219,7 +304,7 @@ def _op_factor(arr: np.ndarray, par: np.ndarray, q: np.ndarray, qd: np.ndarray, 
     _link_terms(arr, par, q, qd, hg, kgeo, W)
     heavy = woodbury_load(arr[1], mc, constrained, par[7] != 0.0)
     extra = constrained or heavy
-    azz = _op_inward(arr, W, 0.0 if extra else mc)
+    azz = _op_inward(arr, W, 0.0 if extra else mc, hg)
     S[_S_BETA0] = hg * par[6] + (hg * hg) * par[5]
     S[_S_AZZ] = azz
     S[_S_MC] = mc
@@ -279,6 +364,42 @@ def _dk_product(arr: np.ndarray, par: np.ndarray, hg: float, W: np.ndarray, rd: 
         t_i = t_next
     if int(par[1]) == 2:
         _morison_product(l, W, rd, out)
+    if par[17] != 0.0:
+        _contact_product(arr, hg, W, rd, rk, out)
+
+
+@nb.njit(cache=True)
+def _contact_product(arr: np.ndarray, hg: float, W: np.ndarray, rd: np.ndarray, rk: np.ndarray,
+                     out: np.ndarray) -> None:
+    """``out += int J_z^T hg (c_b J_z rd + k_b J_z rk) ds`` over each link's contact interval:
+    the z "velocities" ``J_z(s) r = r_z,pin + s sin(theta) r_theta`` (linear in s), their
+    resultant and first moment per link, generalised by ``J_z^T`` (reverse sums)."""
+    n = arr.shape[1]
+    l = arr[0]
+    kb = arr[8]
+    cb = arr[9]
+    sth = W[_W_SIN]
+    fz = np.zeros(n)
+    mzs = np.zeros(n)
+    pd = rd[0]
+    pk = rk[0]
+    for i in range(n):
+        s = sth[i]
+        a = W[_W_CA, i]
+        b = W[_W_CB, i]
+        if b > a:
+            h0, h1, h2 = _contact_moments(a, b)
+            fd = cb[i] * (h0 * pd + h1 * s * rd[i + 1]) + kb[i] * (h0 * pk + h1 * s * rk[i + 1])
+            md = cb[i] * (h1 * pd + h2 * s * rd[i + 1]) + kb[i] * (h1 * pk + h2 * s * rk[i + 1])
+            fz[i] = hg * fd
+            mzs[i] = hg * md
+        pd += l[i] * s * rd[i + 1]
+        pk += l[i] * s * rk[i + 1]
+    sz = 0.0
+    for i in range(n - 1, -1, -1):
+        out[i + 1] += sth[i] * (l[i] * sz + mzs[i])
+        sz += fz[i]
+    out[0] += sz
 
 
 @nb.njit(cache=True)
