@@ -53,9 +53,9 @@ test: $(PKG_STAMP)
 lint: $(PKG_STAMP)
 	$(VENV)/bin/ruff check cable_sim test launch
 
-# Speed against error (optional MuJoCo comparison: installs the bench extra).
+# Speed against error (optional MuJoCo and MoorDyn peers: installs the bench extra).
 bench: $(PKG_STAMP)
-	$(PY) -m pip install -q mujoco==4.0.0
+	$(PY) -m pip install -q mujoco==4.0.0 moordyn==2.7.2
 	$(VENV)/bin/cable_sim_bench $(ARGS)
 
 # Node tick jitter in real time (results/realtime/).

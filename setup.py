@@ -32,7 +32,8 @@ setup(
         "matplotlib>=3.8",  # replay figures / GIF, bench figures
     ],
     extras_require={
-        "bench": ["mujoco"],  # the MuJoCo side-by-side benchmark
+        # the MuJoCo side-by-side benchmark and the MoorDyn peer on the mooring line
+        "bench": ["mujoco", "moordyn>=2.7"],
         # cable_sim_batch: design studies on a Dask cluster, Parquet results, progress bar
         "batch": ["dask>=2024.1", "distributed>=2024.1", "pyarrow>=14", "tqdm>=4.60"],
         "foxglove": ["foxglove-sdk>=0.30"],  # live view (foxglove_port); speaks foxglove.sdk.v1

@@ -99,7 +99,7 @@ def _read(path):
 
 
 def test_bench_quick(tmp_path, capsys):
-    assert bench.main(["--quick", "--out", str(tmp_path)]) == 0
+    assert bench.main(["--quick", "--out", str(tmp_path), "--no-contact", "--no-moordyn"]) == 0
     for name in ("workprecision.csv", "discretisation.csv", "cost_vs_n.csv", "targets.csv", "summary.md",
                  "workprecision_paper_free_fall.png", "workprecision_paper_anchored_forced.png",
                  "error_vs_n.png", "cost_vs_n.png"):
@@ -151,12 +151,38 @@ def test_bench_quick(tmp_path, capsys):
     capsys.readouterr()
     first = tmp_path / "first.csv"
     (tmp_path / "workprecision.csv").rename(first)
-    assert bench.main(["--quick", "--out", str(tmp_path), "--no-mujoco", "--resume", str(first)]) == 0
+    assert bench.main(["--quick", "--out", str(tmp_path), "--no-mujoco", "--no-contact", "--no-moordyn",
+                       "--resume", str(first)]) == 0
     err = capsys.readouterr().err
     assert "reference paper_free_fall_n8" not in err and "taken from" in err
     again = _read(tmp_path / "workprecision.csv")
     assert len(again) == len(wp) and {r["source"] for r in again} == {str(first)}
     assert [r["error_m"] for r in again] == [r["error_m"] for r in wp]
+
+
+def test_bench_quick_runs_contact_and_moordyn_studies(tmp_path, capsys):
+    """The seabed-cost study and the MoorDyn peer are steps of the same invocation: their CSVs,
+    plots and summary sections (the MoorDyn ones only with moordyn installed; without it the
+    bench says why)."""
+    argv = ["--quick", "--out", str(tmp_path), "--scenes", "paper_free_fall", "--n", "4",
+            "--integrators", "rk4", "--no-mujoco"]
+    assert bench.main(argv) == 0
+    for name in ("contact_cost.csv", "contact_cost_ladder.csv", "contact_cost.png"):
+        assert (tmp_path / name).stat().st_size > 0, name
+    chosen = _read(tmp_path / "contact_cost.csv")
+    assert {(r["integrator"], r["seabed"]) for r in chosen} == {("rk4", "on"), ("rk4", "off")}
+    summary = (tmp_path / "summary.md").read_text()
+    assert "### Cost of seabed contact" in summary
+    if importlib.util.find_spec("moordyn") is None:
+        assert "moordyn not importable" in capsys.readouterr().err
+        assert not (tmp_path / "moordyn.csv").exists()
+    else:
+        peer = _read(tmp_path / "moordyn.csv")
+        assert [r["code"].split()[0] for r in peer] == ["cable_sim", "moordyn"]
+        assert (tmp_path / "moordyn_tension.png").stat().st_size > 0
+        assert "### MoorDyn as a second peer" in summary
+        # the two converged answers of the same line agree to a few per cent
+        assert abs(float(peer[1]["static_rel_diff_vs_cable_sim"])) < 0.03
 
 
 def test_bench_rejects_unknown_integrator(tmp_path, capsys):

@@ -10,9 +10,12 @@ progress log), :mod:`.runs` (one timed run: scenes, :func:`simulate`, the compil
 :mod:`.references` (cached reference runs), :mod:`.plan` (what a command line asks for),
 :mod:`.workprecision` (the step / tolerance ladders, ``--resume``), :mod:`.discretisation`
 (error in n), :mod:`.cost` (cost vs n at the error bound), :mod:`.mujoco_chain` (the chain in
-MJCF) and :mod:`.mujoco_compare` (the side-by-side runs), :mod:`.targets`, :mod:`.figures`
-(PNGs), :mod:`.report` (CSV files, summary.md). A further peer or figure is a further module
-plus one step in :func:`cable_sim.analysis.bench.cli.main`.
+MJCF) and :mod:`.mujoco_compare` (the side-by-side runs), :mod:`.contact_cost` (RTF at <= 1 cm
+on the mooring line with the seabed on and off, issue #11), :mod:`.moordyn_input`,
+:mod:`.moordyn_run` and :mod:`.moordyn_peer` (MoorDyn v2 as a second peer on the mooring line,
+issue #13), :mod:`.targets`, :mod:`.figures` (PNGs), :mod:`.report` (CSV files, summary.md). A
+further peer or figure is a further module plus one step in
+:func:`cable_sim.analysis.bench.cli.main`.
 
 Definitions
 -----------
@@ -53,6 +56,10 @@ MuJoCo (optional, ``pip install mujoco``): the paper free fall with drag off in 
 implicit_euler and rosenbrock2 at the same n, step and duration, in the same process, best of 3
 runs each; MuJoCo steps with ``mj_step(m, d, nstep=...)`` per 0.5 s (the cost of a per-step
 Python loop is reported beside it).
+
+Seabed cost (``--no-contact`` skips it, ``--contact-n``): see :mod:`.contact_cost`. MoorDyn
+(optional, ``pip install moordyn==2.7.2``; ``--no-moordyn`` skips it): see :mod:`.moordyn_peer`.
+Both run on ``mooring_line`` for ``--duration`` (default 30 s) in the same invocation.
 
 Results go to ``--out`` (default ``results/bench``): CSVs, PNGs, ``targets.csv`` and
 ``summary.md``; reference trajectories are cached as ``.npz`` under ``<out>/cache`` (or

@@ -13,13 +13,26 @@ import math
 import sys
 import time
 
+from .contact_cost import contact_cost, contact_plot, contact_table
 from .cost import cost_rows, slopes
 from .discretisation import by_scene, discretisation_rows
 from .figures import plots
+from .moordyn_peer import PeerResult, PeerSettings, moordyn_peer, peer_plot
 from .mujoco_compare import mujoco_compare
 from .plan import Plan, PlanError, make_plan
 from .report import make_summary, write_csv
-from .settings import ERROR_FLOOR, FREE_FALL_ONLY_N, N_LIST, REF_STEP, SCENES, STEPS, TOLS, WP_DURATION, log
+from .settings import (
+    ERROR_FLOOR,
+    FREE_FALL_ONLY_N,
+    N_LIST,
+    OPEN_ENDED_DURATION,
+    REF_STEP,
+    SCENES,
+    STEPS,
+    TOLS,
+    WP_DURATION,
+    log,
+)
 from .targets import make_targets
 from .workprecision import run_workprecision
 
@@ -62,6 +75,11 @@ def parse_args(argv=None) -> argparse.Namespace:
     ap.add_argument("--mujoco-n", nargs="+", type=int, default=None, help="default 20 80 160")
     ap.add_argument("--mujoco-step", type=float, default=0.002)
     ap.add_argument("--no-mujoco", action="store_true")
+    ap.add_argument("--contact-n", type=int, default=None,
+                    help="n of the seabed on/off cost study on mooring_line (default 80; --quick 6)")
+    ap.add_argument("--no-contact", action="store_true", help="skip the seabed on/off cost study")
+    ap.add_argument("--no-moordyn", action="store_true",
+                    help="skip the MoorDyn peer (also skipped, with a message, without moordyn)")
     ap.add_argument("--refs-only", action="store_true",
                     help="only compute the cached references (largest n first; run it alongside the "
                          "main bench to fill the cache on the other core)")
@@ -106,6 +124,47 @@ def mujoco_step(plan: Plan, disc: list[dict]) -> list[dict]:
     return mj_rows
 
 
+def _study_duration(plan: Plan) -> float:
+    """Simulated seconds of the contact and MoorDyn studies on mooring_line: ``--duration``,
+    else 30 s (three wave periods after the 10 s ramp)."""
+    return plan.args.duration if plan.args.duration is not None else OPEN_ENDED_DURATION
+
+
+def contact_step(plan: Plan) -> list[dict]:
+    """Issue #11 item 6: RTF at <= 1 cm with and without the seabed (contact_cost*.csv, .png)."""
+    a = plan.args
+    if a.no_contact:
+        return []
+    n = a.contact_n or (6 if a.quick else 80)
+    ladder, chosen = contact_cost(n, _study_duration(plan), plan.cache, plan.integs, plan.steps,
+                                  plan.tols, a.budget, rtol=a.ref_rtol, kernel=plan.kernel)
+    write_csv(plan.out / "contact_cost_ladder.csv", ladder)
+    write_csv(plan.out / "contact_cost.csv", chosen)
+    contact_plot(plan.out, chosen)
+    return contact_table(chosen)
+
+
+def moordyn_step(plan: Plan) -> PeerResult:
+    """Issue #13: MoorDyn as a second peer on the mooring line (moordyn*.csv, moordyn_tension.png)."""
+    a = plan.args
+    if a.no_moordyn:
+        return PeerResult()
+    ps = PeerSettings(duration=_study_duration(plan), budget=a.budget, kernel=plan.kernel)
+    if a.quick:
+        ps.cs_n, ps.cs_integs, ps.cs_steps, ps.cs_conv = (4, 8), ("rk4",), (0.05, 0.0125), (16, "rk4", 0.005)
+        ps.md_segs, ps.md_steps, ps.md_conv = (4, 8), (0.005, 0.002), (16, 0.001)
+    ps.cs_integs = tuple(i for i in ps.cs_integs if i in plan.avail)
+    try:
+        res = moordyn_peer(ps)
+    except RuntimeError as exc:
+        log(f"MoorDyn peer: {exc}")
+        return PeerResult()
+    write_csv(plan.out / "moordyn_ladder.csv", res.ladder)
+    write_csv(plan.out / "moordyn.csv", res.summary)
+    peer_plot(plan.out, res)
+    return res
+
+
 def main(argv=None) -> int:
     """Entry point of ``cable_sim_bench``."""
     args = parse_args(argv)
@@ -126,12 +185,15 @@ def main(argv=None) -> int:
     fitted = slopes(costs, plan.scenes)
     write_csv(plan.out / "cost_vs_n.csv", costs)
     mj_rows = mujoco_step(plan, disc)
+    contact = contact_step(plan)
+    peer = moordyn_step(plan)
     plots(plan.out, wp, disc, costs, plan.scenes, fitted)
     targets = make_targets(wp, mj_rows, fitted)
     write_csv(plan.out / "targets.csv", targets)
     elapsed = time.perf_counter() - plan.t_start
     summary = make_summary(argv if argv is not None else sys.argv[1:], plan.kernel, plan.why, plan.integs,
-                           args, wp, disc, costs, fitted, mj_rows, targets, elapsed)
+                           args, wp, disc, costs, fitted, mj_rows, targets, elapsed,
+                           contact=contact, peer=peer.summary)
     (plan.out / "summary.md").write_text(summary)
     print(summary)
     log(f"done in {elapsed:.0f} s; results in {plan.out}")

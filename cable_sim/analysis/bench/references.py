@@ -23,13 +23,15 @@ from .settings import log
 
 def reference(scene: str, n: int, duration: float, cache: Path, dop853_max_n: int,
               ref_step: float, drag: str | None = None, rtol: float = 1e-10,
-              kernel: str = "fast") -> tuple[Run, str, float]:
-    """(reference run, description, estimated own error [m]), cached as npz."""
+              kernel: str = "fast", overrides: dict | None = None) -> tuple[Run, str, float]:
+    """(reference run, description, estimated own error [m]), cached as npz; ``overrides`` are
+    further scene parameters (part of the cache key)."""
     kind = "dop853" if n <= dop853_max_n else "rosenbrock2"
     if kind == "rosenbrock2" and "rosenbrock2" not in INTEGRATORS:
         kind = "dop853"  # no implicit schemes: the explicit reference, however slow
     tag = f"{scene}_n{n}_T{duration:g}_{kind}" + (f"_rtol{rtol:g}" if kind == "dop853" else f"_h{ref_step:g}")
     tag += f"_drag-{drag}" if drag else ""
+    tag += "".join(f"_{k}-{v}" for k, v in sorted((overrides or {}).items()))
     path = cache / f"ref_{tag}.npz"
     lock = path.with_suffix(".lock")
     while not path.exists() and _locked_by_other(lock):
@@ -43,7 +45,8 @@ def reference(scene: str, n: int, duration: float, cache: Path, dop853_max_n: in
     cache.mkdir(parents=True, exist_ok=True)
     lock.write_text(str(os.getpid()))
     try:
-        return _compute_reference(scene, n, duration, kind, tag, path, ref_step, drag, rtol, kernel)
+        return _compute_reference(scene, n, duration, kind, tag, path, ref_step, drag, rtol, kernel,
+                                  overrides)
     finally:
         lock.unlink(missing_ok=True)
 
@@ -65,13 +68,14 @@ def _locked_by_other(lock: Path) -> bool:
     return True
 
 
-def _compute_reference(scene, n, duration, kind, tag, path, ref_step, drag, rtol, kernel):
+def _compute_reference(scene, n, duration, kind, tag, path, ref_step, drag, rtol, kernel, overrides):
+    ov = dict(drag=drag, kernel=kernel, overrides=overrides)
     if kind == "dop853":
-        run = simulate(scene, n, "dop853", rtol, duration, drag=drag, kernel=kernel)
+        run = simulate(scene, n, "dop853", rtol, duration, **ov)
         desc, err_est = f"DOP853 rtol=atol={rtol:g}", float("nan")
     else:
-        run = simulate(scene, n, "rosenbrock2", ref_step, duration, drag=drag, kernel=kernel)
-        coarse = simulate(scene, n, "rosenbrock2", 2 * ref_step, duration, drag=drag, kernel=kernel)
+        run = simulate(scene, n, "rosenbrock2", ref_step, duration, **ov)
+        coarse = simulate(scene, n, "rosenbrock2", 2 * ref_step, duration, **ov)
         err_est = error(run, coarse) / 3.0 if (run.ok and coarse.ok) else float("nan")
         desc = f"rosenbrock2 h={ref_step:g} s (own error est. |h - 2h|/3 = {err_est:.2g} m)"
     if not run.ok:

@@ -105,6 +105,39 @@ def _discretisation_section(disc: list[dict]) -> list[str]:
                           "tension_rel_error"]), ""]
 
 
+def _contact_section(contact: list[dict]) -> list[str]:
+    if not contact:
+        return []
+    return ["### Cost of seabed contact (mooring_line, issue #11 item 6)", "",
+            "Per scheme: the largest step (fixed-step) or loosest tolerance (adaptive) of the ladder "
+            "whose max joint-position error against DOP853 (rtol = atol = 1e-10, same n and seabed "
+            "setting) is <= 1 cm, and the real-time factor there (best of 3), with the scene's seabed "
+            "on and off in the same invocation; added mass on (the scene's Can 1.0, Cat 0.0) in both. "
+            "`rtf_off_over_on` > 1: contact costs that factor. Every run: contact_cost_ladder.csv; "
+            "plot: contact_cost.png.", "",
+            _table(contact, ["integrator", "seabed_on", "rtf_on", "error_on_m", "seabed_off", "rtf_off",
+                             "error_off_m", "rtf_off_over_on"]), ""]
+
+
+def _peer_section(peer: list[dict]) -> list[str]:
+    if not peer:
+        return []
+    return ["### MoorDyn as a second peer (mooring_line, issue #13)", "",
+            "Same line in MoorDyn v2 (`cable_sim/analysis/bench/moordyn_input.py`: mass, diameter, "
+            "Morison drag and added mass, seabed per area = cable_sim's per length / d, EI; EA large, "
+            "line lowered 20 m below MoorDyn's free surface), its fairlead driven through cable_sim's "
+            "converged buoy heave under the scene's wave. Each code at the cheapest segment count and "
+            "step whose fairlead tension history is within 1 % (max over t of |T - T_conv| / max "
+            "T_conv) of its own converged run; `*_rel_diff_vs_cable_sim`: the converged MoorDyn answer "
+            "against the converged cable_sim one. Every run: moordyn_ladder.csv; plot: "
+            "moordyn_tension.png.", "",
+            _table(peer, ["code", "scheme", "segments", "step", "wall_per_sim_s", "rtf", "tension_rel_error",
+                          "conv_static_tension_N", "conv_mean_tension_N", "conv_max_tension_N"], digits=4),
+            "", _table(peer[1:], ["code", "converged", "static_rel_diff_vs_cable_sim",
+                                  "mean_rel_diff_vs_cable_sim", "max_rel_diff_vs_cable_sim",
+                                  "history_rel_diff_vs_cable_sim"]), ""]
+
+
 def _footer(wp: list[dict]) -> list[str]:
     s = []
     nres = sum(1 for r in wp if r.get("source", "this run") != "this run")
@@ -121,11 +154,14 @@ def _footer(wp: list[dict]) -> list[str]:
 
 
 def make_summary(argv, kernel, why, integs, args, wp, disc, cost_rows, slopes, mj_rows, targets,
-                 elapsed) -> str:
-    """The markdown snippet for the README (also printed)."""
+                 elapsed, contact: list[dict] | None = None, peer: list[dict] | None = None) -> str:
+    """The markdown snippet for the README (also printed); ``contact`` and ``peer`` are the rows
+    of the seabed-cost and MoorDyn studies (none: no section)."""
     s = _header(argv, kernel, why, integs, args, wp, elapsed)
     s += ["### Targets", "", _table(targets, ["target", "measured", "goal", "met", "detail"], digits=4), ""]
     s += _mujoco_section(mj_rows)
+    s += _contact_section(contact or [])
+    s += _peer_section(peer or [])
     s += _cost_section(cost_rows, slopes)
     s += _discretisation_section(disc)
     s += _footer(wp)

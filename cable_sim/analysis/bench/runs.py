@@ -90,9 +90,11 @@ class _OverBudget(Exception):
         self.t = t
 
 
-def make_scene(name: str, n: int, drag: str | None = None, kernel: str = "fast") -> Scene:
-    """The scene at n links (EI and per-length properties fixed) on the given kernel."""
-    ov: dict[str, object] = {"kernel": kernel}
+def make_scene(name: str, n: int, drag: str | None = None, kernel: str = "fast",
+               overrides: dict | None = None) -> Scene:
+    """The scene at n links (EI and per-length properties fixed) on the given kernel, with
+    further scene ``overrides`` (e.g. ``{"seabed": False}``)."""
+    ov: dict[str, object] = {"kernel": kernel, **(overrides or {})}
     if drag is not None:
         ov["drag_model"] = drag
     sc = load_scene(name, ov)
@@ -232,12 +234,13 @@ def _run_fixed(run: Run, sc: Scene, t: np.ndarray, budget: float, compiled_timin
 
 def simulate(scene_name: str, n: int, integrator: str, setting: float, duration: float,
              budget: float = math.inf, drag: str | None = None, kernel: str = "fast",
-             compiled_timing: bool = True) -> Run:
+             compiled_timing: bool = True, overrides: dict | None = None) -> Run:
     """Run one configuration (``setting``: step [s] or rtol = atol); ``budget`` [s wall] aborts
     a run projected (fixed step) or found (adaptive) to take longer. ``compiled_timing=False``
-    times :meth:`Integrator.advance` as a whole instead of the compiled stepper."""
+    times :meth:`Integrator.advance` as a whole instead of the compiled stepper; ``overrides``
+    are further scene parameters (:func:`make_scene`)."""
     run = Run(scene_name, n, integrator, setting, duration, kernel=kernel)
-    sc = make_scene(scene_name, n, drag, kernel)
+    sc = make_scene(scene_name, n, drag, kernel, overrides)
     nout = int(round(duration / SAMPLE))
     t = np.arange(nout + 1) * SAMPLE
     if is_adaptive(integrator):
