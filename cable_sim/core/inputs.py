@@ -2,6 +2,9 @@
 
 Each signal is a callable ``signal(t) -> float`` (t in s). They are pure functions of time,
 so a run driven by them is reproducible, and a recorded run can be re-simulated exactly.
+Each also has a packed form, ``signal.packed()`` (a small float array), that the compiled
+steppers evaluate inside their loop with the same arithmetic
+(:mod:`cable_sim.core.kernel.signals`; imported lazily, so the dense path needs no compiler).
 """
 
 from __future__ import annotations
@@ -33,6 +36,12 @@ class Constant:
     def __call__(self, t: float) -> float:
         return self.value
 
+    def packed(self) -> np.ndarray:
+        """The packed form ``[0, 0, 0, value]`` (see :mod:`cable_sim.core.kernel.signals`)."""
+        from cable_sim.core.kernel.signals import CONSTANT, pack_signal
+
+        return pack_signal(CONSTANT, 0.0, self.value)
+
 
 @dataclass(frozen=True)
 class Sine:
@@ -45,6 +54,13 @@ class Sine:
 
     def __call__(self, t: float) -> float:
         return _ramp(t, self.ramp) * self.amplitude * np.sin(2 * np.pi * t / self.period + self.phase)
+
+    def packed(self) -> np.ndarray:
+        """The packed form: one (amplitude, period, phase) term of kind ``SINE`` (see
+        :mod:`cable_sim.core.kernel.signals`)."""
+        from cable_sim.core.kernel.signals import SINE, pack_signal
+
+        return pack_signal(SINE, self.ramp, 0.0, [[self.amplitude, self.period, self.phase]])
 
 
 class Jonswap:
@@ -88,6 +104,14 @@ class Jonswap:
 
     def __call__(self, t: float) -> float:
         return _ramp(t, self.ramp) * float(np.sum(self.amplitude * np.cos(self.omega * t + self.phase)))
+
+    def packed(self) -> np.ndarray:
+        """The packed form: (amplitude, omega, phase) terms of kind ``COSINE_SUM`` (see
+        :mod:`cable_sim.core.kernel.signals`)."""
+        from cable_sim.core.kernel.signals import COSINE_SUM, pack_signal
+
+        terms = np.column_stack([self.amplitude, self.omega, self.phase])
+        return pack_signal(COSINE_SUM, self.ramp, 0.0, terms)
 
 
 def jonswap_spectrum(omega: np.ndarray, hs: float, tp: float, gamma: float = 3.3) -> np.ndarray:

@@ -3,6 +3,11 @@
 :class:`CableSystem` is what integrators advance. It owns no state of its own besides the
 input source (a function of time, or a value held by the ROS node); the state array is
 passed in and returned.
+
+Besides the callable, the input source may carry an *input program*
+(:func:`cable_sim.core.kernel.signals.pack_program`): the same inputs as packed coefficients,
+which the compiled steppers evaluate without calling back into Python. The program belongs to
+the callable it was set with: assigning :attr:`CableSystem.input_at` directly drops it.
 """
 
 from __future__ import annotations
@@ -63,13 +68,37 @@ class CableSystem:
         self.set_inputs(inputs)
         self.nfev = 0
 
-    def set_inputs(self, inputs: InputSource | Inputs) -> None:
-        """Replace the input source (a held :class:`Inputs` or a function of time)."""
+    def set_inputs(self, inputs: InputSource | Inputs, program: np.ndarray | None = None) -> None:
+        """Replace the input source (a held :class:`Inputs` or a function of time).
+
+        Parameters
+        ----------
+        inputs : callable or Inputs
+            ``inputs(t) -> Inputs``, or a constant :class:`Inputs` (held).
+        program : ndarray, optional
+            The same inputs as an input program
+            (:func:`cable_sim.core.kernel.signals.pack_program`), for the compiled steppers.
+            The caller guarantees that it evaluates to ``inputs(t)``. A held :class:`Inputs`
+            gets one automatically on the ``fast`` kernel; without one, the compiled steppers
+            sample the callable in Python.
+        """
         if isinstance(inputs, Inputs):
             held = inputs
             self.input_at = lambda t: held
+            if program is None and self.kernel == "fast":
+                from cable_sim.core.kernel.signals import CONSTANT, pack_program, pack_signal
+
+                program = pack_program(pack_signal(CONSTANT, 0.0, 0.0), pack_signal(CONSTANT, 0.0, 0.0),
+                                       float(held.heave_force), float(held.wave_elevation))
         else:
             self.input_at = inputs
+        self._program = (self.input_at, program)
+
+    def input_program(self) -> np.ndarray | None:
+        """The input program set with the current :attr:`input_at`, or None (no program, or
+        :attr:`input_at` was replaced since)."""
+        owner, program = self._program
+        return program if owner is self.input_at else None
 
     def rhs(self, t: float, y: np.ndarray) -> np.ndarray:
         """dy/dt at time t [s] for state y = [q, qd]."""

@@ -48,6 +48,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from cable_sim.core import kernel as fast
+from cable_sim.core.inputs import Jonswap, Sine
+from cable_sim.core.kernel.signals import pack_program, sample_program
 from cable_sim.core.model import CableModel
 from cable_sim.core.params import CableParams
 from cable_sim.core.system import CableSystem
@@ -56,6 +58,8 @@ from cable_sim.integrate.errors import ENERGY_JUMP, OSCILLATION, SINGULAR
 
 #: Integrator classes whose compiled stepper has been compiled/loaded in this process.
 _WARMED: set[type] = set()
+#: The sampling offsets of the compiled steppers as arrays (for ``sample_program``).
+_OFFSETS: dict[tuple[float, ...], np.ndarray] = {}
 
 log = logging.getLogger(__name__)
 
@@ -212,15 +216,31 @@ class Integrator(StepChecks, ABC):
         k = len(self._fast_offsets)
         self._fast_kernel(arr, par, 1e-3, np.zeros((1, k)), np.zeros((1, k)), np.zeros(6),
                           self._chk(), np.zeros(4))
+        prog = pack_program(Sine(1.0, 1.0).packed(), Jonswap(1.0, 1.0, n_components=2).packed())
+        sample_program(prog, 0.0, 1e-3, np.zeros(k), np.zeros((1, k)), np.zeros((1, k)))
         _WARMED.add(cls)
 
-    def _run_fast(self, t0: float, y: np.ndarray, h: float, nsteps: int) -> np.ndarray:
-        """``nsteps`` compiled steps of size h from (t0, y); raise on a failed check.
+    def _sample_inputs(self, t0: float, h: float, nsteps: int
+                       ) -> tuple[np.ndarray, np.ndarray, float, float]:
+        """The inputs of ``nsteps`` compiled steps of h from t0, at ``t_k + offset * h`` with
+        ``t_k = t0 + k h`` (exactly the times the Python path uses): arrays ``u``, ``eta`` of
+        shape (nsteps, offsets) and their largest magnitudes.
 
-        The inputs are sampled in Python (``system.input_at`` may be any callable) at
-        ``t_k + offset * h`` with ``t_k = t0 + k h``, exactly the times the Python path uses.
+        With the system's input program (:meth:`CableSystem.input_program`) they are evaluated
+        compiled (:func:`cable_sim.core.kernel.signals.sample_program`, the same arithmetic as
+        the Python signals); otherwise ``system.input_at`` (any callable) is sampled in Python.
         """
-        arr, par, chk = self._fast_model()
+        k = len(self._fast_offsets)
+        program = getattr(self.system, "input_program", None)
+        prog = None if program is None else program()
+        if prog is not None:
+            offs = _OFFSETS.get(self._fast_offsets)
+            if offs is None:
+                offs = _OFFSETS.setdefault(self._fast_offsets, np.array(self._fast_offsets, dtype=float))
+            u = np.empty((nsteps, k))
+            eta = np.empty((nsteps, k))
+            u_max, eta_max = sample_program(prog, float(t0), float(h), offs, u, eta)
+            return u, eta, u_max, eta_max
         f = self.system.input_at
         offs = [o * h for o in self._fast_offsets]  # 0.5 * h == h / 2 exactly
         if nsteps == 1:
@@ -232,12 +252,22 @@ class Integrator(StepChecks, ABC):
             ins = [f(float(t) + o) for t in tk for o in offs]
             u = np.array([i.heave_force for i in ins]).reshape(nsteps, len(offs))
             eta = np.array([i.wave_elevation for i in ins]).reshape(nsteps, len(offs))
+        return u, eta, float(np.abs(u).max()), float(np.abs(eta).max())
+
+    def _run_fast(self, t0: float, y: np.ndarray, h: float, nsteps: int) -> np.ndarray:
+        """``nsteps`` compiled steps of size h from (t0, y); raise on a failed check.
+
+        The inputs are sampled by :meth:`_sample_inputs` (compiled when the system has an input
+        program, else in Python) at exactly the times the Python path uses.
+        """
+        arr, par, chk = self._fast_model()
+        u, eta, u_max, eta_max = self._sample_inputs(t0, h, nsteps)
         yc = np.array(y, dtype=float, copy=True)
         if yc.shape != (2 * self.system.model.ndof,):  # the compiled code does not bounds-check
             raise ValueError(
                 f"state has shape {yc.shape}; expected ({2 * self.system.model.ndof},) = 2(n+1)"
             )
-        self.arm_checks(yc, h, nsteps, u, eta, chk)
+        self.arm_checks(yc, h, nsteps, u, eta, chk, (u_max, eta_max))
         info = np.zeros(4)
         try:
             status = self._fast_kernel(arr, par, float(h), u, eta, yc, chk, info)
@@ -270,13 +300,17 @@ class Integrator(StepChecks, ABC):
         return n, h
 
     def arm_checks(self, y: np.ndarray, h: float, nsteps: int, u: np.ndarray, eta: np.ndarray,
-                   chk: np.ndarray) -> None:
+                   chk: np.ndarray, bounds: tuple[float, float] | None = None) -> None:
         """Set the physical checks of ``chk`` (from :meth:`_fast_model`) for one compiled call
         of ``nsteps`` steps of h from ``y`` with the sampled inputs ``u``, ``eta``: the
         kinetic-energy bound, the per-step energy allowance and the runaway detector's floor.
         Whoever calls :meth:`_fast_kernel` directly must call this first (else those three
-        checks are off) and reset ``chk`` afterwards with :func:`_disarm`."""
-        cont = self._budget_for(y, nsteps * h, float(np.abs(u).max()), float(np.abs(eta).max()))
+        checks are off) and reset ``chk`` afterwards with :func:`_disarm`. ``bounds``: the
+        largest |u| and |eta| of the samples when the caller has them already (as
+        :meth:`_sample_inputs` returns them)."""
+        if bounds is None:
+            bounds = (float(np.abs(u).max()), float(np.abs(eta).max()))
+        cont = self._budget_for(y, nsteps * h, *bounds)
         chk[5] = self.kinetic_energy_bound
         chk[7] = self._energy_jump_allowed(h)
         if not (cont and np.isfinite(chk[6])):  # else: the energy the last call ended with

@@ -8,6 +8,10 @@ inputs reproduces a run bit for bit:
 - the input over a step is ``signal(t) + held`` where ``signal`` is the scene's built-in source
   (a pure function of time) and ``held`` the last value set by :meth:`set_heave_force` /
   :meth:`set_wave_elevation` (zero-order hold from a topic), applied from the next step on.
+
+On the ``fast`` kernel the same inputs are also handed to the system as an input program
+(:mod:`cable_sim.core.kernel.signals`; the held values are written into it as they change), so
+the compiled steppers evaluate them without calling back into Python.
 """
 
 from __future__ import annotations
@@ -20,6 +24,7 @@ from cable_sim.core import dynamics
 from cable_sim.core.dynamics import Inputs
 from cable_sim.core.energy_bounds import kinetic_lower_bound
 from cable_sim.core.inputs import make_signal
+from cable_sim.core.kernel.signals import HELD_ETA, HELD_U, pack_program
 from cable_sim.core.model import CableModel
 from cable_sim.integrate import IntegrationError
 from cable_sim.scene.scenes import Scene
@@ -151,7 +156,11 @@ class Simulation:
         cfg = {**scene.sim, **scene.extra}
         self._heave_signal = make_signal(scene.sim["heave_force_source"], "heave_force", cfg)
         self._wave_signal = make_signal(scene.sim["wave_source"], "wave", cfg)
-        self.system.set_inputs(self.inputs_at)
+        self._program: np.ndarray | None = None  # the inputs packed for the compiled steppers
+        self._held_u = self._held_eta = 0.0
+        if self.kernel == "fast":
+            self._program = pack_program(self._heave_signal.packed(), self._wave_signal.packed())
+        self.system.set_inputs(self.inputs_at, self._program)
         self._energy = _energy_fn(self.kernel)
         self.y0 = scene.initial_state(self.model)
         self.reset()
@@ -169,6 +178,28 @@ class Simulation:
         self.held_wave_elevation = 0.0
         self.integrator.reset_energy_budget(self.y)
 
+    @property
+    def held_heave_force(self) -> float:
+        """The held (topic) heave force [N] added to the built-in source."""
+        return self._held_u
+
+    @held_heave_force.setter
+    def held_heave_force(self, value: float) -> None:
+        self._held_u = float(value)
+        if self._program is not None:
+            self._program[HELD_U] = self._held_u
+
+    @property
+    def held_wave_elevation(self) -> float:
+        """The held (topic) wave elevation [m] added to the built-in source."""
+        return self._held_eta
+
+    @held_wave_elevation.setter
+    def held_wave_elevation(self, value: float) -> None:
+        self._held_eta = float(value)
+        if self._program is not None:
+            self._program[HELD_ETA] = self._held_eta
+
     def set_heave_force(self, value: float) -> None:
         """Hold a heave force [N] (added to the built-in source) from the next step on."""
         self.held_heave_force = float(value)
@@ -180,8 +211,8 @@ class Simulation:
     def inputs_at(self, t: float) -> Inputs:
         """Inputs at time t: built-in source plus held topic value."""
         return Inputs(
-            self._heave_signal(t) + self.held_heave_force,
-            self._wave_signal(t) + self.held_wave_elevation,
+            self._heave_signal(t) + self._held_u,
+            self._wave_signal(t) + self._held_eta,
         )
 
     def step(self) -> None:
