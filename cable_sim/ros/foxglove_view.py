@@ -12,7 +12,8 @@ Channels (``prefix`` + name; the layout ``config/foxglove_layout.json`` opens th
 - ``/cable_sim/scene`` (``foxglove.SceneUpdate``, protobuf): the cable as a line strip coloured by
   tension (blue low, red high, per vertex), the platform as a cube, the load as a sphere (free end)
   or the anchor as a cube (anchored ends), the water surface as a thin translucent plate at the
-  wave elevation and the seabed (when the model has one) as a brown plate, all in ``frame_id``;
+  wave elevation and the seabed (when the model has one) as a brown plate with the touchdown point
+  as a yellow sphere on it (deleted while nothing lies on the bed), all in ``frame_id``;
 - ``/cable_sim/tension`` (JSON): fairlead and anchor tension [N] and the per-link tension array;
 - ``/cable_sim/diagnostics`` (JSON): real-time factor, overruns, status and the view's own counts.
 
@@ -61,6 +62,21 @@ DIAGNOSTICS_SCHEMA: dict[str, Any] = {
     },
     "additionalProperties": True,
 }
+
+
+def touchdown_x(pos: np.ndarray, seabed_z: float) -> float | None:
+    """x [m] of the touchdown point of a polyline (n+1, 2) of (x, z) from the fairlead: where the
+    first link that reaches below ``seabed_z`` crosses it (as ``cable_sim.core.seabed``'s
+    ``touchdown_x``); None when no joint is below the bed."""
+    below = np.nonzero(pos[:, 1] < seabed_z)[0]
+    if not len(below):
+        return None
+    j = int(below[0])
+    if j == 0:  # the fairlead itself below the bed (refused by the scene checks)
+        return float(pos[0, 0])
+    d_a, d_b = seabed_z - pos[j - 1, 1], seabed_z - pos[j, 1]
+    frac = d_a / (d_a - d_b)
+    return float(pos[j - 1, 0] + frac * (pos[j, 0] - pos[j - 1, 0]))
 
 
 class FoxgloveUnavailable(ImportError):
@@ -263,12 +279,21 @@ class FoxgloveView:
         ents.append(entity("water", cubes=[m.CubePrimitive(
             pose=pose(0.5 * (x0 + x1), wave), size=m.Vector3(x=width, y=width, z=0.05),
             color=m.Color(r=0.1, g=0.4, b=1.0, a=0.25))]))
+        deletions: list[Any] = []
         seabed_z = float(getattr(self.model, "seabed_z", -math.inf))
         if bool(getattr(self.model, "seabed", False)) and math.isfinite(seabed_z):
             ents.append(entity("seabed", cubes=[m.CubePrimitive(
                 pose=pose(0.5 * (x0 + x1), seabed_z - 0.5), size=m.Vector3(x=width, y=width, z=1.0),
                 color=m.Color(r=0.45, g=0.35, b=0.2, a=0.8))]))
-        return m.SceneUpdate(entities=ents)
+            td = touchdown_x(pos, seabed_z)
+            if td is not None:
+                ents.append(entity("touchdown", spheres=[m.SpherePrimitive(
+                    pose=pose(td, seabed_z), size=m.Vector3(x=3.0, y=3.0, z=3.0),
+                    color=m.Color(r=1.0, g=0.85, b=0.0, a=1.0))]))
+            else:
+                deletions.append(m.SceneEntityDeletion(
+                    timestamp=stamp, type=m.SceneEntityDeletionType.MatchingId, id="touchdown"))
+        return m.SceneUpdate(deletions=deletions, entities=ents)
 
     def _send_state(self, t: float, pos: np.ndarray, tension: np.ndarray, fairlead: float,
                     anchor: float, wave: float) -> None:

@@ -213,3 +213,27 @@ def test_free_end_scene_without_seabed_has_no_seabed_outputs(tmp_path):
                for _, arr in msgs["/cable_markers"])
     run = load_run(path)
     assert "touchdown_x_min" not in summary_values(run) and "touchdown" not in summary(run)
+
+
+def test_live_view_marks_the_touchdown_point():
+    """The Foxglove scene's touchdown sphere sits at the package's touchdown x (its geometric
+    definition: where the first link reaching below the bed crosses it) and is deleted when the
+    line is lifted clear of the bed."""
+    pytest.importorskip("foxglove")
+    from cable_sim.core.seabed import seabed_outputs
+    from cable_sim.ros.foxglove_view import FoxgloveView
+    from cable_sim.scene.simulation import Simulation
+
+    sim = Simulation(load_scene("mooring_line"))
+    out = sim.outputs()
+    want = seabed_outputs(sim.model, out.q, out.qd).touchdown_x
+    with FoxgloveView(sim.model, port=0) as view:
+        touching = repr(view.scene_update(0.0, out.joint_positions, out.axial_tension, 0.0))
+        lifted = out.joint_positions + np.array([0.0, 50.0])
+        clear = repr(view.scene_update(0.0, lifted, out.axial_tension, 0.0))
+    sphere = touching[touching.index('id: "touchdown"'):]
+    x = float(sphere.split("position: Some(Vector3 { x: ", 1)[1].split(",", 1)[0])
+    assert x == pytest.approx(want, abs=1e-9) and "z: -100.0" in sphere.split("size", 1)[0]
+    assert "deletions=[]" in touching
+    assert 'deletions=[SceneEntityDeletion' in clear and 'id: "touchdown"' in clear.split("entities=", 1)[0]
+    assert 'id: "touchdown"' not in clear.split("entities=", 1)[1]
