@@ -49,6 +49,13 @@ class RealtimePacing:
         self.sim_wall_base = (now, self.node.sim.t)
 
     def tick(self) -> None:
+        w = time.perf_counter()
+        try:
+            self._advance()
+        finally:
+            self.node.run.profile.tick(time.perf_counter() - w)
+
+    def _advance(self) -> None:
         node, sim, run = self.node, self.node.sim, self.node.run
         now = time.monotonic()
         node.clock.tick(now, sim.t)

@@ -12,6 +12,7 @@ import time
 from typing import TYPE_CHECKING
 
 from cable_sim.integrate import IntegrationError
+from cable_sim.ros.timing import TickProfile
 
 if TYPE_CHECKING:
     from rclpy.node import Node
@@ -35,6 +36,9 @@ class RunControl:
         self.overruns = 0
         self.step_wall = 0.0
         self.steps_done = 0
+        #: Wall time per part of the run (physics here; outputs, messages, publish, record in
+        #: :class:`cable_sim.ros.publishers.NodeOutputs`; ticks in the real-time pacing).
+        self.profile = TickProfile()
 
     def running(self) -> bool:
         """Whether the simulation may advance (not paused, failed or finished)."""
@@ -54,7 +58,9 @@ class RunControl:
         except IntegrationError as exc:
             self.fail(str(exc))
             return False
-        self.step_wall += time.perf_counter() - w
+        dt = time.perf_counter() - w
+        self.step_wall += dt
+        self.profile.add("physics", dt)
         self.steps_done += 1
         k, o = sim.k, node.outputs
         due = (node.clock_mode != "lockstep" and k % o.every_js == 0, k % o.every_mk == 0,

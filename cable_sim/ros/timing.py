@@ -91,3 +91,43 @@ class RunClock:
     def tick_intervals(self) -> np.ndarray:
         """Intervals between the kept ticks [s] (one zero while fewer than three ticks)."""
         return np.diff(np.array(self.tick_times)) if len(self.tick_times) > 2 else np.zeros(1)
+
+
+class TickProfile:
+    """Where the node's wall time goes, part by part: the realtime benchmark's tick split.
+
+    Parts (wall seconds, summed over the run): ``physics`` (integrator steps), ``outputs``
+    (derived quantities of the state: tensions, positions, energy), ``messages`` (building and
+    serialising the messages), ``publish`` (handing bytes to the middleware), ``record`` (handing
+    them to the recorder); ``other`` is the rest of the timer ticks (pacing, executor, diagnostics).
+    """
+
+    PARTS = ("physics", "outputs", "messages", "publish", "record")
+
+    def __init__(self) -> None:
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget everything measured."""
+        self.wall = dict.fromkeys(self.PARTS, 0.0)
+        self.tick_wall = 0.0
+        self.ticks = 0
+        self.longest_tick = 0.0
+
+    def add(self, part: str, seconds: float) -> None:
+        """Count ``seconds`` of wall time to ``part`` (one of :attr:`PARTS`)."""
+        self.wall[part] += seconds
+
+    def tick(self, seconds: float) -> None:
+        """Count one timer tick that took ``seconds`` of wall time in all."""
+        self.tick_wall += seconds
+        self.ticks += 1
+        self.longest_tick = max(self.longest_tick, seconds)
+
+    def split_us(self) -> dict[str, float]:
+        """Mean wall time per tick of every part and of ``other`` [µs] (nan before a tick)."""
+        if self.ticks == 0:
+            return {p: math.nan for p in (*self.PARTS, "other")}
+        per = {p: 1e6 * w / self.ticks for p, w in self.wall.items()}
+        per["other"] = max(0.0, 1e6 * self.tick_wall / self.ticks - sum(per.values()))
+        return per
