@@ -4,7 +4,9 @@ Every message the node publishes goes through :meth:`NodeOutputs.publish`, which
 hands it to the recorder with its simulated-time stamp; the recording also gets ``/tf`` at every
 joint state and ``/tf_static`` + ``robot_description`` at its start (:mod:`cable_sim.ros.tf_output`).
 Outputs are checked before they are published: an :class:`IntegrationError` or a non-finite value
-stops the run instead.
+stops the run instead. With a seabed, ``seabed_contact`` goes out with the tensions, and the markers
+draw the bed and the touchdown point, from one computation per published step
+(:meth:`NodeOutputs.seabed_values`, shared with the diagnostics).
 
 QoS (REP-2003): the streams are reliable, volatile, keep last 10 (:data:`STREAM_QOS`): the node is
 a simulator, not a sensor driver, so a subscriber that can keep up gets every state (plots and
