@@ -15,8 +15,11 @@ whose error hardly changed from the previous step is limited by its segment coun
 count is tried); the first segment count with a run within the bound ends the walk (more
 segments cost more at a smaller step). Each code is reported at its cheapest run within the bound:
 segment count, step, wall time per simulated second (the shortest of ``repeats`` timings, taken
-alternately for the two codes so that both see the same machine load). The two converged answers are compared
-(static, mean and max fairlead tension and the whole history).
+alternately for the two codes so that both see the same machine load). Wall time: cable_sim's
+time stepping including its input sampling (:func:`.runs.simulate`'s ``wall + wall_inputs``),
+MoorDyn's ``Step`` calls including their Python call overhead (100 calls per simulated second).
+The two converged answers are compared (static, mean and max fairlead tension and the whole
+history).
 
 ``moordyn`` is optional: without it :func:`moordyn_peer` logs why and returns nothing.
 
@@ -136,7 +139,8 @@ def _cable_sim(ps: PeerSettings, conv: np.ndarray) -> list[dict]:
 
         def runner(n: int, h: float, integ=integ) -> dict:
             r = simulate(SCENE, n, integ, h, ps.duration, budget=ps.budget, kernel=ps.kernel)
-            return _row("cable_sim", integ, n, h, ps.duration, r.status, r.wall, r.tension, conv)
+            return _row("cable_sim", integ, n, h, ps.duration, r.status, r.wall + r.wall_inputs,
+                        r.tension, conv)
 
         rows += _walk(runner, ps.cs_n, ps.cs_steps, f"cable_sim {integ}")
     return rows
@@ -227,10 +231,12 @@ def _rerun(b: dict, ps: PeerSettings, line, heave) -> tuple[float, np.ndarray]:
     """(wall time, tension history) of a chosen run done again."""
     if b["code"] == "cable_sim":
         r = simulate(SCENE, b["segments"], b["scheme"], b["step"], ps.duration, kernel=ps.kernel)
+        wall = r.wall + r.wall_inputs
     else:
         r = run_moordyn(line, b["segments"], b["step"], ps.duration, heave, SAMPLE, float("inf"),
                         b["scheme"])
-    return (r.wall if r.ok else float("inf")), r.tension
+        wall = r.wall
+    return (wall if r.ok else float("inf")), r.tension
 
 
 def _retime_chosen(res: PeerResult, ps: PeerSettings, line, heave, cs_rows, md_rows, t) -> None:
