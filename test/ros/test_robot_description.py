@@ -25,6 +25,7 @@ from visualization_msgs.msg import Marker, MarkerArray
 
 DOMAIN = isolate_ros()
 DOC = yaml.safe_load((Path(__file__).resolve().parents[2] / "msg_configs" / "interface.yaml").read_text())
+MARKER_NS = ("cable", "end", "platform", "water", "seabed", "touchdown")
 LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST,
                      durability=DurabilityPolicy.TRANSIENT_LOCAL)
 
@@ -108,7 +109,8 @@ def test_markers_follow_rviz_conventions_and_reset_clears_them(graph):
     for arr in got:
         ids = [(m.ns, m.id) for m in arr.markers]
         assert len(set(ids)) == len(ids)  # RViz flags duplicate (ns, id) in one array
-        assert ids == [("cable", 0), ("end", 1), ("platform", 2), ("water", 3)]  # stable, none cleared
+        # stable, none cleared (mooring_line has a seabed: its line and the touchdown point)
+        assert ids == [(ns, k) for k, ns in enumerate(MARKER_NS)]
         for m in arr.markers:
             assert m.action == Marker.ADD and not m.frame_locked
             assert m.lifetime.sec == 0 and m.lifetime.nanosec == 0
@@ -127,5 +129,5 @@ def test_markers_follow_rviz_conventions_and_reset_clears_them(graph):
     first = got[i].markers
     assert first[0].ns == "" and (first[0].header.stamp.sec, first[0].header.stamp.nanosec) == (0, 0)
     assert [(m.ns, m.id, m.action) for m in first[1:]] == [
-        (ns, k, Marker.ADD) for k, ns in enumerate(("cable", "end", "platform", "water"))]
+        (ns, k, Marker.ADD) for k, ns in enumerate(MARKER_NS)]
     assert all(m.action == Marker.ADD for arr in got[i + 1:] for m in arr.markers)
