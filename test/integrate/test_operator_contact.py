@@ -179,3 +179,81 @@ def test_operator_with_contact_equals_dense(end: str, locked: bool, added: bool,
           f"{worst:.1e} (bed's terms change it by >= {effect:.1e})")
     assert worst < TOL
     assert effect > 1e3 * TOL
+
+
+def _positive(c0: float, c1: float, a: float, b: float) -> tuple[float, float]:
+    """[a, b] intersected with {s : c0 + c1 s > 0} (empty: a == b)."""
+    if c1 != 0.0:
+        r = -c0 / c1
+        a, b = (max(a, r), b) if c1 > 0.0 else (a, min(b, r))
+    elif c0 <= 0.0:
+        b = a
+    return a, max(a, b)
+
+
+def _interval_reference(m: CableModel, q: np.ndarray, qd: np.ndarray, horizon: float):
+    """(D_c, K_c) = sum_i (c_b, k_b) int_a^b J_z^T J_z ds, assembled densely, over the smallest
+    interval [a, b] of link i holding the part the bed pushes on now and the part in the bed
+    at the state extrapolated ``horizon`` ahead; also the number of links so widened."""
+    n1 = m.ndof
+    p = dynamics.joint_positions(m, q)
+    v = dynamics.joint_velocities(m, q, qd)
+    pe = dynamics.joint_positions(m, q + horizon * qd)
+    Dc = np.zeros((n1, n1))
+    Kc = np.zeros((n1, n1))
+    widened = 0
+    P = np.zeros(n1)  # d z(p_{i-1}) / dq
+    P[0] = 1.0
+    for i in range(m.n):
+        th, w, li = q[i + 1], qd[i + 1], m.length[i]
+        d0, d1 = ZB - p[i, 1], np.cos(th)
+        a, b = _positive(d0, d1, 0.0, li)
+        a, b = _positive(K_B * d0 - C_B * v[i, 1], K_B * d1 - C_B * w * np.sin(th), a, b)
+        ap, bp = _positive(ZB - pe[i, 1], np.cos(th + horizon * w), 0.0, li)
+        if horizon > 0.0 and bp > ap and (b <= a or ap < a or bp > b):
+            widened += 1
+            a, b = (ap, bp) if b <= a else (min(a, ap), max(b, bp))
+        if b > a:
+            e = np.zeros(n1)
+            e[i + 1] = np.sin(th)
+            G = ((b - a) * np.outer(P, P) + (b**2 - a**2) / 2 * (np.outer(P, e) + np.outer(e, P))
+                 + (b**3 - a**3) / 3 * np.outer(e, e))
+            Dc += C_B * G
+            Kc += K_B * G
+        P[i + 1] = li * np.sin(th)
+    return Dc, Kc, widened
+
+
+@pytest.mark.parametrize("end", ["free", "anchored"])
+def test_operator_contact_over_the_step(end: str) -> None:
+    """With a horizon (the schemes pass their step h) the contact terms also cover the part of
+    each link predicted to be in the bed h later: a link about to touch down is already stiff
+    in the operator (without, the damper's force, which jumps to c_b |zdot| where a link
+    enters the bed, is explicit for that step). Same O(n) code, dense reference assembled
+    here; horizon 0 gives the finite-difference reference of the test above."""
+    n = 24
+    p = _params(end, False, True, n)
+    m = CableModel.from_params(p)
+    bare = CableModel.from_params(p.replace(seabed=False))
+    rng = np.random.default_rng(3 + (end == "anchored"))
+    worst, widened = 0.0, 0
+    for _ in range(4):
+        q, qd = _state(m, rng, True)
+        hg, horizon = 0.03, 0.4
+        kgeo = rng.uniform(0.0, 2.0e3, n)
+        M, D, K = implicit.dense_operator(bare, q, qd, kgeo)
+        for H in (0.0, horizon):
+            Dc, Kc, wide = _interval_reference(m, q, qd, H)
+            widened += wide
+            Dt, Kt = D + Dc, K + Kc
+            rd, rk = rng.normal(size=m.ndof), rng.normal(size=m.ndof)
+            ref = hg * (Dt @ rd) + hg * (Kt @ rk)
+            got = implicit.operator_product(m, q, qd, hg, rd, rk, kgeo, horizon=H)
+            worst = max(worst, np.abs(got - ref).max() / np.abs(ref).max())
+            rhs = 1e3 * rng.normal(size=m.ndof)
+            x_ref = _dense_solve(m, q, M + hg * Dt + hg * hg * Kt, rhs)
+            x = implicit.operator_solve(m, q, qd, hg, rhs, kgeo, horizon=H)
+            worst = max(worst, np.abs(x - x_ref).max() / np.abs(x_ref).max())
+    print(f"\n{end}: O(n) with horizon vs dense {worst:.1e}, {widened} links widened")
+    assert widened > 0
+    assert worst < TOL

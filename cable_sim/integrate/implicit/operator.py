@@ -76,7 +76,7 @@ _MODE_NONE, _MODE_CONSTRAINED, _MODE_HEAVY = 0.0, 1.0, 2.0
 
 @nb.njit(cache=True, inline="always")
 def _link_terms(arr: np.ndarray, par: np.ndarray, q: np.ndarray, qd: np.ndarray, hg: float,
-                kgeo: np.ndarray, W: np.ndarray) -> None:
+                kgeo: np.ndarray, W: np.ndarray, horizon: float) -> None:
     """Per-link terms of ``M~`` at (q, qd) into W: cos/sin, joint armature ``beta``, extra
     rotational inertia (paper drag ``drot``, tension stiffness ``kg``), extra centre masses
     ``g_t, g_e`` (the Jacobian of the Morison force: ``2 c_n |v.t|``, ``2 c_t |v.e|``)."""
@@ -111,14 +111,16 @@ def _link_terms(arr: np.ndarray, par: np.ndarray, q: np.ndarray, qd: np.ndarray,
             W[_W_GE, i] = hg * 2.0 * ct[i] * abs(ve)
             vx, vz = next_pin_velocity(vx, vz, l[i], c, s, w)
         W[_W_ROT, i] = W[_W_DROT, i] + hg * W[_W_KGEO, i]
-    _contact_terms(arr, par, q, qd, W)
+    _contact_terms(arr, par, q, qd, W, horizon)
 
 
 @nb.njit(cache=True, inline="always")
 def _contact_terms(arr: np.ndarray, par: np.ndarray, q: np.ndarray, qd: np.ndarray,
-                   W: np.ndarray) -> None:
-    """Each link's seabed contact interval ``[a, b]`` (where the bed pushes on it, from
-    :func:`cable_sim.core.kernel.contact.touching_interval`) into W; ``a = b = 0`` without."""
+                   W: np.ndarray, horizon: float) -> None:
+    """Each link's seabed contact interval ``[a, b]`` into W (``a = b = 0`` without): where
+    the bed pushes on it (:func:`cable_sim.core.kernel.contact.touching_interval`), with
+    ``horizon`` > 0 widened to the smallest interval that also holds the part in the bed at the
+    extrapolated state ``q + horizon qd``."""
     n = arr.shape[1]
     l = arr[0]
     W[_W_CA] = 0.0
@@ -130,11 +132,24 @@ def _contact_terms(arr: np.ndarray, par: np.ndarray, q: np.ndarray, qd: np.ndarr
     cb = arr[9]
     pz = q[0]
     vz = qd[0]
+    pze = q[0] + horizon * qd[0]  # the joint's z at the extrapolated state q + horizon qd
     for i in range(n):
         c = W[_W_COS, i]
         s = W[_W_SIN, i]
         w = qd[i + 1]
-        W[_W_CA, i], W[_W_CB, i] = touching_interval(pz, vz, q[i + 1], w, l[i], zb, kb[i], cb[i])
+        a, b = touching_interval(pz, vz, q[i + 1], w, l[i], zb, kb[i], cb[i])
+        if horizon > 0.0:
+            # penetration at the extrapolated state (k = 1, c = 0: the force is delta)
+            the = q[i + 1] + horizon * w
+            ap, bp = touching_interval(pze, 0.0, the, 0.0, l[i], zb, 1.0, 0.0)
+            pze -= l[i] * np.cos(the)
+            if b <= a:
+                a, b = ap, bp
+            elif bp > ap:
+                a = min(a, ap)
+                b = max(b, bp)
+        W[_W_CA, i] = a
+        W[_W_CB, i] = b
         pz -= l[i] * c
         vz += l[i] * s * w
 
@@ -275,8 +290,13 @@ def _op_unit_forces(arr: np.ndarray, par: np.ndarray, W: np.ndarray, S: np.ndarr
 
 @nb.njit(cache=True)
 def _op_factor(arr: np.ndarray, par: np.ndarray, q: np.ndarray, qd: np.ndarray, hg: float,
-               kgeo: np.ndarray, W: np.ndarray, S: np.ndarray, X: np.ndarray) -> bool:
+               kgeo: np.ndarray, W: np.ndarray, S: np.ndarray, X: np.ndarray,
+               horizon: float) -> bool:
     """Articulated inertias of ``M~ = M + hg D + hg^2 K`` at (q, qd); fills W, S, X.
+
+    ``horizon`` (the step h in the schemes; 0: the Jacobian at (q, qd) itself): the seabed
+    contact's terms cover the part of each link in the bed now or predicted to be there
+    ``horizon`` later (see :func:`_contact_terms`).
 
     Backward sweep (tip to platform). For the subtree below pin p_{i-1} the 3x3 articulated
     inertia maps the parent's (angular acceleration, pin acceleration) to the (couple, force)
@@ -301,7 +321,7 @@ def _op_factor(arr: np.ndarray, par: np.ndarray, q: np.ndarray, qd: np.ndarray, 
     """
     constrained = par[10] != 0.0
     mc = par[2]
-    _link_terms(arr, par, q, qd, hg, kgeo, W)
+    _link_terms(arr, par, q, qd, hg, kgeo, W, horizon)
     heavy = woodbury_load(arr[1], mc, constrained, par[7] != 0.0)
     extra = constrained or heavy
     azz = _op_inward(arr, W, 0.0 if extra else mc, hg)
@@ -466,7 +486,7 @@ def geometric_stiffness(model: CableModel, q: np.ndarray, F: np.ndarray) -> np.n
 
 
 def _factor_fast(model: CableModel, q: np.ndarray, qd: np.ndarray, hg: float,
-                 kgeo: np.ndarray | None):
+                 kgeo: np.ndarray | None, horizon: float = 0.0):
     arr, par = pack_arrays(model)
     n = model.n
     W = np.zeros((_NW, n))
@@ -474,7 +494,8 @@ def _factor_fast(model: CableModel, q: np.ndarray, qd: np.ndarray, hg: float,
     X = np.zeros((2, n + 1))
     kg = np.zeros(n) if kgeo is None else np.ascontiguousarray(kgeo, dtype=float)
     ok = _op_factor(arr, par, np.ascontiguousarray(q, dtype=float),
-                    np.ascontiguousarray(qd, dtype=float), float(hg), kg, W, S, X)
+                    np.ascontiguousarray(qd, dtype=float), float(hg), kg, W, S, X,
+                    float(horizon))
     return arr, par, W, S, X, ok
 
 
@@ -485,6 +506,7 @@ def operator_solve(
     hg: float,
     rhs: np.ndarray,
     kgeo: np.ndarray | None = None,
+    horizon: float = 0.0,
 ) -> np.ndarray:
     """Solve ``(M + hg D + hg^2 K) x = rhs`` in O(n) (anchored end: subject to ``J x = 0``).
 
@@ -499,6 +521,10 @@ def operator_solve(
         Generalised force.
     kgeo : ndarray (n,), optional
         Tension stiffness per link (see :func:`geometric_stiffness`); zero if omitted.
+    horizon : float, optional
+        Seabed contact: also cover the part of each link predicted (with ``qd``) to be in the
+        bed this much later [s] (the schemes pass their step); 0 (default): the contact
+        force's Jacobian at (q, qd).
 
     Returns
     -------
@@ -509,7 +535,7 @@ def operator_solve(
     numpy.linalg.LinAlgError
         If the anchored end's 2x2 Schur matrix is singular.
     """
-    arr, par, W, S, X, ok = _factor_fast(model, q, qd, hg, kgeo)
+    arr, par, W, S, X, ok = _factor_fast(model, q, qd, hg, kgeo, horizon)
     if not ok:
         raise np.linalg.LinAlgError("singular anchor constraint matrix J M~^-1 J^T")
     x = np.empty(model.ndof)
@@ -525,9 +551,11 @@ def operator_product(
     rd: np.ndarray,
     rk: np.ndarray,
     kgeo: np.ndarray | None = None,
+    horizon: float = 0.0,
 ) -> np.ndarray:
-    """``hg D rd + hg K rk`` in O(n) (the local damping and stiffness of the operator)."""
-    arr, par, W, S, X, _ = _factor_fast(model, q, qd, hg, kgeo)
+    """``hg D rd + hg K rk`` in O(n) (the local damping and stiffness of the operator;
+    parameters as :func:`operator_solve`)."""
+    arr, par, W, S, X, _ = _factor_fast(model, q, qd, hg, kgeo, horizon)
     out = np.empty(model.ndof)
     _dk_product(arr, par, float(hg), W, np.ascontiguousarray(rd, dtype=float),
                 np.ascontiguousarray(rk, dtype=float), out)

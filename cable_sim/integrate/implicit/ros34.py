@@ -157,7 +157,7 @@ def _ros_step(arr: np.ndarray, par: np.ndarray, geometric: bool, predict: bool, 
             vp = wk[7]
             for j in range(n1):
                 vp[j] = Yv[j] + h * acc[j] if predict else Yv[j]
-            if not _op_factor(arr, par, Yq, vp, hg, kgeo, W, S, X):
+            if not _op_factor(arr, par, Yq, vp, hg, kgeo, W, S, X, h):
                 return False
         for j in range(n1):
             rq = Yv[j]

@@ -29,13 +29,15 @@ from cable_sim.integrate.implicit.operator import (
 @nb.njit(cache=True, inline="always")
 def _factor_at(arr: np.ndarray, par: np.ndarray, geometric: bool, hg: float, q: np.ndarray,
                v: np.ndarray, a1: np.ndarray, lam: np.ndarray, kgeo: np.ndarray, W: np.ndarray,
-               S: np.ndarray, X: np.ndarray) -> bool:
-    """Factor the operator at (q, v); with ``geometric`` the tension stiffness from the joint
-    forces at the accelerations ``a1`` and anchor reaction ``lam`` first."""
+               S: np.ndarray, X: np.ndarray, h: float) -> bool:
+    """Factor the operator at (q, v) (seabed contact over the step h, see
+    :func:`cable_sim.integrate.implicit.operator._op_factor`); with ``geometric`` the tension
+    stiffness from the joint forces at the accelerations ``a1`` and anchor reaction ``lam``
+    first."""
     if geometric:
         F = joint_forces_packed(arr, par, lam[0], lam[1], q, v, a1)
         _kgeo_from_forces(arr, q, F, kgeo)
-    return _op_factor(arr, par, q, v, hg, kgeo, W, S, X)
+    return _op_factor(arr, par, q, v, hg, kgeo, W, S, X, h)
 
 
 @nb.njit(cache=True, inline="always")
@@ -89,7 +91,7 @@ def _implicit_run(arr: np.ndarray, par: np.ndarray, scheme: int, gamma: float, g
         if not fd_packed(arr, par, u[k, 0], eta[k, 0], q, v, a1, lam):
             return STATUS_SINGULAR
         info[0] += 1
-        if not _factor_at(arr, par, geometric, hg, q, v, a1, lam, kgeo, W, S, X):
+        if not _factor_at(arr, par, geometric, hg, q, v, a1, lam, kgeo, W, S, X, h):
             return STATUS_SINGULAR
         for j in range(n1):
             rk[j] = v[j] + hg * a1[j]
