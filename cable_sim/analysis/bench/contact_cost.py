@@ -81,7 +81,7 @@ def _retime(chosen: dict[str, dict], integ: str, n: int, duration: float, budget
 
 
 def contact_cost(n: int, duration: float, cache: Path, integs, steps, tols, budget: float,
-                 rtol: float = 1e-10, kernel: str = "fast", repeats: int = 3
+                 rtol: float = 1e-10, kernel: str = "fast", repeats: int = 7
                  ) -> tuple[list[dict], list[dict]]:
     """(every run, chosen rows) of the seabed on/off comparison (see the module docstring).
 

@@ -50,7 +50,7 @@ MD_SCHEMES = ("RK2",)
 MD_STEPS = (0.01, 0.005, 0.002, 0.0015, 0.001, 0.00075, 0.0005, 0.0003, 0.0002)
 MD_CONV = (320, 0.0002)
 #: Timings of each code's chosen run (alternating between the codes; the shortest counts).
-REPEATS = 3
+REPEATS = 5
 #: A ladder whose error changed by less than this fraction from the previous step is limited by
 #: its segment count: the next count is tried.
 STALL = 0.2

@@ -111,7 +111,8 @@ def _contact_section(contact: list[dict]) -> list[str]:
     return ["### Cost of seabed contact (mooring_line, issue #11 item 6)", "",
             "Per scheme: the largest step (fixed-step) or loosest tolerance (adaptive) of the ladder "
             "whose max joint-position error against DOP853 (rtol = atol = 1e-10, same n and seabed "
-            "setting) is <= 1 cm, and the real-time factor there (best of 3), with the scene's seabed "
+            "setting) is <= 1 cm, and the real-time factor there (shortest of 7 timings taken "
+            "alternately with the seabed on and off), with the scene's seabed "
             "on and off in the same invocation; added mass on (the scene's Can 1.0, Cat 0.0) in both. "
             "`rtf_off_over_on` > 1: contact costs that factor. Every run: contact_cost_ladder.csv; "
             "plot: contact_cost.png.", "",
@@ -128,9 +129,11 @@ def _peer_section(peer: list[dict]) -> list[str]:
             "line lowered 20 m below MoorDyn's free surface), its fairlead driven through cable_sim's "
             "converged buoy heave under the scene's wave. Each code at the cheapest segment count and "
             "step whose fairlead tension history is within 1 % (max over t of |T - T_conv| / max "
-            "T_conv) of its own converged run; `*_rel_diff_vs_cable_sim`: the converged MoorDyn answer "
-            "against the converged cable_sim one. Every run: moordyn_ladder.csv; plot: "
-            "moordyn_tension.png.", "",
+            "T_conv) of its own converged run; wall time per simulated second: the shortest of 5 timings "
+            "taken alternately for the two codes (cable_sim: compiled stepping plus its input sampling; "
+            "MoorDyn: its `Step` calls, 100 per simulated second); `*_rel_diff_vs_cable_sim`: the "
+            "converged MoorDyn answer against the converged cable_sim one. Every run: "
+            "moordyn_ladder.csv; plot: moordyn_tension.png.", "",
             _table(peer, ["code", "scheme", "segments", "step", "wall_per_sim_s", "rtf", "tension_rel_error",
                           "conv_static_tension_N", "conv_mean_tension_N", "conv_max_tension_N"], digits=4),
             "", _table(peer[1:], ["code", "converged", "static_rel_diff_vs_cable_sim",
