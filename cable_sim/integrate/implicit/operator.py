@@ -117,10 +117,16 @@ def _link_terms(arr: np.ndarray, par: np.ndarray, q: np.ndarray, qd: np.ndarray,
 @nb.njit(cache=True, inline="always")
 def _contact_terms(arr: np.ndarray, par: np.ndarray, q: np.ndarray, qd: np.ndarray,
                    W: np.ndarray, horizon: float) -> None:
-    """Each link's seabed contact interval ``[a, b]`` into W (``a = b = 0`` without): where
-    the bed pushes on it (:func:`cable_sim.core.kernel.contact.touching_interval`), with
-    ``horizon`` > 0 widened to the smallest interval that also holds the part in the bed at the
-    extrapolated state ``q + horizon qd``."""
+    """Each link's seabed contact interval ``[a, b]`` into W (``a = b = 0`` without).
+
+    ``horizon`` = 0: where the bed pushes on the link at (q, qd)
+    (:func:`cable_sim.core.kernel.contact.touching_interval`), so that the operator is the
+    contact force's Jacobian there. ``horizon`` > 0 (the schemes pass their step h): the smallest
+    interval holding the part in the bed now and the part in the bed at the extrapolated state
+    ``q + horizon qd``, whatever the damper does. A W-method keeps its order for any W; this one
+    is stiff wherever the bed can push during the step: a link about to touch down (the damper's
+    force jumps to ``c_b |zdot|`` where a link enters the bed) and a link rising out of it (the
+    damper cancels the spring while it rises fast, then the spring is back)."""
     n = arr.shape[1]
     l = arr[0]
     W[_W_CA] = 0.0
@@ -137,9 +143,9 @@ def _contact_terms(arr: np.ndarray, par: np.ndarray, q: np.ndarray, qd: np.ndarr
         c = W[_W_COS, i]
         s = W[_W_SIN, i]
         w = qd[i + 1]
-        a, b = touching_interval(pz, vz, q[i + 1], w, l[i], zb, kb[i], cb[i])
         if horizon > 0.0:
-            # penetration at the extrapolated state (k = 1, c = 0: the force is delta)
+            # in the bed now, and at the extrapolated state (k = 1, c = 0: the force is delta)
+            a, b = touching_interval(pz, 0.0, q[i + 1], 0.0, l[i], zb, 1.0, 0.0)
             the = q[i + 1] + horizon * w
             ap, bp = touching_interval(pze, 0.0, the, 0.0, l[i], zb, 1.0, 0.0)
             pze -= l[i] * np.cos(the)
@@ -148,6 +154,8 @@ def _contact_terms(arr: np.ndarray, par: np.ndarray, q: np.ndarray, qd: np.ndarr
             elif bp > ap:
                 a = min(a, ap)
                 b = max(b, bp)
+        else:
+            a, b = touching_interval(pz, vz, q[i + 1], w, l[i], zb, kb[i], cb[i])
         W[_W_CA, i] = a
         W[_W_CB, i] = b
         pz -= l[i] * c
@@ -295,8 +303,8 @@ def _op_factor(arr: np.ndarray, par: np.ndarray, q: np.ndarray, qd: np.ndarray, 
     """Articulated inertias of ``M~ = M + hg D + hg^2 K`` at (q, qd); fills W, S, X.
 
     ``horizon`` (the step h in the schemes; 0: the Jacobian at (q, qd) itself): the seabed
-    contact's terms cover the part of each link in the bed now or predicted to be there
-    ``horizon`` later (see :func:`_contact_terms`).
+    contact's terms cover the part of each link in the bed now or at ``q + horizon qd``
+    (see :func:`_contact_terms`).
 
     Backward sweep (tip to platform). For the subtree below pin p_{i-1} the 3x3 articulated
     inertia maps the parent's (angular acceleration, pin acceleration) to the (couple, force)
@@ -522,9 +530,9 @@ def operator_solve(
     kgeo : ndarray (n,), optional
         Tension stiffness per link (see :func:`geometric_stiffness`); zero if omitted.
     horizon : float, optional
-        Seabed contact: also cover the part of each link predicted (with ``qd``) to be in the
-        bed this much later [s] (the schemes pass their step); 0 (default): the contact
-        force's Jacobian at (q, qd).
+        Seabed contact [s]: 0 (default): the contact force's Jacobian at (q, qd); > 0 (the
+        schemes pass their step): over the part of each link in the bed now or at
+        ``q + horizon qd``, the damper's cut ignored.
 
     Returns
     -------
