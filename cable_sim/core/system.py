@@ -49,6 +49,8 @@ class CableSystem:
         ``inputs(t) -> Inputs``, or a constant :class:`Inputs` (held). Default: no input.
     kernel : {"dense", "fast"}
         Dense Cholesky reference or the O(n) compiled kernel.
+    program : ndarray, optional
+        The inputs as an input program for the compiled steppers (see :meth:`set_inputs`).
 
     Attributes
     ----------
@@ -61,11 +63,12 @@ class CableSystem:
         model: CableModel,
         inputs: InputSource | Inputs = NO_INPUT,
         kernel: str = "dense",
+        program: np.ndarray | None = None,
     ) -> None:
         self.model = model
         self.kernel = kernel
         self.forward = _kernel(kernel)
-        self.set_inputs(inputs)
+        self.set_inputs(inputs, program)
         self.nfev = 0
 
     def set_inputs(self, inputs: InputSource | Inputs, program: np.ndarray | None = None) -> None:

@@ -30,7 +30,10 @@
   singularity: snap load). A singular constraint solve inside a step is reported the same way.
 - When the system's kernel is ``"fast"``, :class:`RK4` and :class:`SemiImplicitEuler` run their
   steps, the check and the projection compiled (numba), one call per :meth:`Integrator.step`
-  or per :meth:`Integrator.advance`; the results equal the Python path up to roundoff.
+  or per :meth:`Integrator.advance`; the results equal the Python path up to roundoff. The
+  inputs of those steps are sampled compiled too when the system carries an input program
+  (:meth:`CableSystem.input_program`, set by :class:`cable_sim.scene.simulation.Simulation`):
+  then a fixed-step run calls no Python per step. Any other input callable is sampled in Python.
 
 Fixed-step schemes here: :class:`RK4` (order 4, explicit; stability limited by the stiffest
 joint/drag mode), :class:`SemiImplicitEuler` (order 1, explicit; symplectic only for a constant

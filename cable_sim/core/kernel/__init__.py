@@ -12,6 +12,8 @@
 ``anchor``         anchored end: constraint right-hand side, projection, drift, Schur matrix
 ``checks``         the integrators' compiled per-step checks and their status codes
 ``startup``        :func:`warmup` (compile before real time starts)
+``signals``        the built-in input signals' packed form and the system's input program,
+                   evaluated compiled (:func:`~cable_sim.core.kernel.signals.sample_program`)
 =================  ==========================================================================
 
 The compiled explicit steppers that use these live in the integrate layer
