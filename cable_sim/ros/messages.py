@@ -44,15 +44,24 @@ def _header(stamp_ns: int, frame_id: str):
     return h
 
 
-def build_joint_state(out: Any, stamp_ns: int, frame_id: str = "world"):
-    """sensor_msgs/JointState of the interface (heave then relative angles)."""
+def joint_names(n: int) -> list[str]:
+    """Joint names of the interface: ``platform_heave``, then ``joint_1`` .. ``joint_n``."""
+    return ["platform_heave"] + [f"joint_{i + 1}" for i in range(n)]
+
+
+def joint_state_message(pos: np.ndarray, vel: np.ndarray, eff: np.ndarray, stamp_ns: int,
+                        frame_id: str = "world"):
+    """sensor_msgs/JointState of the interface from its three arrays (n + 1 values each)."""
     from sensor_msgs.msg import JointState
 
-    pos, vel, eff = joint_state_arrays(out)
-    n = len(pos) - 1
-    return JointState(header=_header(stamp_ns, frame_id),
-                      name=["platform_heave"] + [f"joint_{i + 1}" for i in range(n)],
-                      position=pos.tolist(), velocity=vel.tolist(), effort=eff.tolist())
+    return JointState(header=_header(stamp_ns, frame_id), name=joint_names(len(pos) - 1),
+                      position=np.asarray(pos, float).tolist(), velocity=np.asarray(vel, float).tolist(),
+                      effort=np.asarray(eff, float).tolist())
+
+
+def build_joint_state(out: Any, stamp_ns: int, frame_id: str = "world"):
+    """sensor_msgs/JointState of the interface (heave then relative angles)."""
+    return joint_state_message(*joint_state_arrays(out), stamp_ns, frame_id)
 
 
 def build_wrench(force: np.ndarray, stamp_ns: int, frame_id: str = "world"):
@@ -115,26 +124,102 @@ def build_seabed_contact(values: Iterable[float]):
 MARKER_IDS = {"cable": 0, "end": 1, "platform": 2, "water": 3, "seabed": 4, "touchdown": 5}
 
 
-def _seabed_markers(hdr: Any, model: Any, values: np.ndarray, x0: float, x1: float) -> list[Any]:
-    """The seabed line at the bed's z and the touchdown sphere (DELETE while nothing touches)."""
-    from geometry_msgs.msg import Point
-    from std_msgs.msg import ColorRGBA
+def marker_values(out: Any, model: Any, seabed: np.ndarray | None = None) -> dict[str, np.ndarray]:
+    """The changing values of the node's markers (:func:`markers_message`), as arrays.
+
+    ``line_points`` (n+1, 3) and ``line_colors`` (n+1, 4, float32: red with tension, blue without,
+    scaled by the largest tension), ``end_position``, ``platform_position`` (3), ``water_points``
+    (2, 3) at the wave elevation over the line's x range +- 20 m; with a seabed also
+    ``seabed_points`` (2, 3) at the bed's z over the same range, ``touchdown_action`` (int32 (1,):
+    ADD, or DELETE while nothing lies on the bed) and ``touchdown_position`` (3). ``seabed`` are the
+    :func:`seabed_contact_values` of ``out`` (computed here when not given).
+    """
     from visualization_msgs.msg import Marker
 
-    zb = float(model.seabed_z)
-    bed = Marker(header=hdr, ns="seabed", type=Marker.LINE_STRIP, action=Marker.ADD)
-    bed.pose.orientation.w = 1.0
-    bed.scale.x = 0.5
-    bed.points = [Point(x=x0, z=zb), Point(x=x1, z=zb)]
-    bed.color = ColorRGBA(r=0.45, g=0.35, b=0.2, a=1.0)
-    touching = values[2] > 0.0
-    td = Marker(header=hdr, ns="touchdown", type=Marker.SPHERE,
-                action=Marker.ADD if touching else Marker.DELETE)
-    td.pose.position.x, td.pose.position.z = float(values[1]), zb
-    td.pose.orientation.w = 1.0
-    td.scale.x = td.scale.y = td.scale.z = 3.0
-    td.color = ColorRGBA(r=1.0, g=0.85, b=0.0, a=1.0)
-    return [bed, td]
+    p = out.joint_positions
+    ten = np.abs(out.axial_tension)
+    tmax = float(ten.max()) if len(ten) and ten.max() > 0 else 1.0
+    tn = np.concatenate([ten[:1], ten]) / tmax
+    pts = np.zeros((len(p), 3))
+    pts[:, 0], pts[:, 2] = p[:, 0], p[:, 1]
+    cols = np.empty((len(p), 4), dtype=np.float32)
+    cols[:, 0], cols[:, 1], cols[:, 2], cols[:, 3] = tn, 0.2, 1.0 - tn, 1.0
+    x0, x1 = float(min(p[:, 0].min(), 0.0)) - 20.0, float(p[:, 0].max()) + 20.0
+    eta = float(out.inputs.wave_elevation)
+    values = {
+        "line_points": pts, "line_colors": cols,
+        "end_position": np.array([p[-1, 0], 0.0, p[-1, 1]]),
+        "platform_position": np.array([p[0, 0], 0.0, p[0, 1]]),
+        "water_points": np.array([[x0, 0.0, eta], [x1, 0.0, eta]]),
+    }
+    if model.seabed:
+        sv = seabed_contact_values(out, model) if seabed is None else seabed
+        zb = float(model.seabed_z)
+        values["seabed_points"] = np.array([[x0, 0.0, zb], [x1, 0.0, zb]])
+        values["touchdown_action"] = np.array([Marker.ADD if sv[2] > 0.0 else Marker.DELETE], np.int32)
+        values["touchdown_position"] = np.array([float(sv[1]), 0.0, zb])
+    return values
+
+
+def _points(xyz: np.ndarray) -> list[Any]:
+    from geometry_msgs.msg import Point
+
+    return [Point(x=float(x), y=float(y), z=float(z)) for x, y, z in xyz]
+
+
+def _position(marker: Any, xyz: np.ndarray) -> None:
+    marker.pose.position.x, marker.pose.position.y, marker.pose.position.z = (float(v) for v in xyz)
+    marker.pose.orientation.w = 1.0
+
+
+def markers_message(values: dict[str, np.ndarray], model: Any, stamp_ns: int, frame_id: str = "world",
+                    delete_all: bool = False):
+    """visualization_msgs/MarkerArray of :func:`marker_values` (see :func:`build_markers`)."""
+    from std_msgs.msg import ColorRGBA
+    from visualization_msgs.msg import Marker, MarkerArray
+
+    hdr = _header(stamp_ns, frame_id)
+    line = Marker(header=hdr, ns="cable", type=Marker.LINE_STRIP, action=Marker.ADD)
+    line.pose.orientation.w = 1.0
+    line.scale.x = 0.5
+    line.points = _points(values["line_points"])
+    line.colors = [ColorRGBA(r=float(r), g=float(g), b=float(b), a=float(a))
+                   for r, g, b, a in values["line_colors"]]
+    end = Marker(header=hdr, ns="end", action=Marker.ADD,
+                 type=Marker.CUBE if model.end != 0 else Marker.SPHERE)
+    _position(end, values["end_position"])
+    end.scale.x = end.scale.y = end.scale.z = 2.0
+    end.color = ColorRGBA(r=0.3, g=0.3, b=0.3, a=1.0)
+    plat = Marker(header=hdr, ns="platform", type=Marker.CUBE, action=Marker.ADD)
+    _position(plat, values["platform_position"])
+    plat.scale.x, plat.scale.y, plat.scale.z = 8.0, 8.0, 3.0
+    plat.color = ColorRGBA(r=0.9, g=0.5, b=0.1, a=1.0)
+    water = Marker(header=hdr, ns="water", type=Marker.LINE_STRIP, action=Marker.ADD)
+    water.pose.orientation.w = 1.0
+    water.scale.x = 0.2
+    water.points = _points(values["water_points"])
+    water.color = ColorRGBA(r=0.1, g=0.4, b=1.0, a=0.6)
+    markers = [line, end, plat, water]
+    if "seabed_points" in values:
+        bed = Marker(header=hdr, ns="seabed", type=Marker.LINE_STRIP, action=Marker.ADD)
+        bed.pose.orientation.w = 1.0
+        bed.scale.x = 0.5
+        bed.points = _points(values["seabed_points"])
+        bed.color = ColorRGBA(r=0.45, g=0.35, b=0.2, a=1.0)
+        td = Marker(header=hdr, ns="touchdown", type=Marker.SPHERE,
+                    action=int(values["touchdown_action"][0]))
+        _position(td, values["touchdown_position"])
+        td.scale.x = td.scale.y = td.scale.z = 3.0
+        td.color = ColorRGBA(r=1.0, g=0.85, b=0.0, a=1.0)
+        markers += [bed, td]
+    for mk in markers:
+        mk.id = MARKER_IDS[mk.ns]
+        mk.frame_locked = False
+    if delete_all:
+        clear = Marker(header=hdr, ns="", id=0, action=Marker.DELETEALL)
+        clear.pose.orientation.w = 1.0
+        markers.insert(0, clear)
+    return MarkerArray(markers=markers)
 
 
 def build_markers(out: Any, model: Any, stamp_ns: int, frame_id: str = "world", delete_all: bool = False,
@@ -154,50 +239,7 @@ def build_markers(out: Any, model: Any, stamp_ns: int, frame_id: str = "world", 
     z), whose action is ``DELETE`` while no part of the line is below the bed level. ``seabed``
     are the :func:`seabed_contact_values` of ``out`` (computed here when not given).
     """
-    from geometry_msgs.msg import Point
-    from std_msgs.msg import ColorRGBA
-    from visualization_msgs.msg import Marker, MarkerArray
-
-    hdr = _header(stamp_ns, frame_id)
-    p = out.joint_positions
-    ten = np.abs(out.axial_tension)
-    tmax = float(ten.max()) if len(ten) and ten.max() > 0 else 1.0
-    line = Marker(header=hdr, ns="cable", id=0, type=Marker.LINE_STRIP, action=Marker.ADD)
-    line.pose.orientation.w = 1.0
-    line.scale.x = 0.5
-    line.points = [Point(x=float(x), y=0.0, z=float(z)) for x, z in p]
-    tn = np.concatenate([ten[:1], ten]) / tmax
-    line.colors = [ColorRGBA(r=float(a), g=0.2, b=float(1.0 - a), a=1.0) for a in tn]
-    end = Marker(header=hdr, ns="end", id=1, action=Marker.ADD,
-                 type=Marker.CUBE if model.end != 0 else Marker.SPHERE)
-    end.pose.position.x, end.pose.position.z = float(p[-1, 0]), float(p[-1, 1])
-    end.pose.orientation.w = 1.0
-    end.scale.x = end.scale.y = end.scale.z = 2.0
-    end.color = ColorRGBA(r=0.3, g=0.3, b=0.3, a=1.0)
-    plat = Marker(header=hdr, ns="platform", id=2, type=Marker.CUBE, action=Marker.ADD)
-    plat.pose.position.x, plat.pose.position.z = float(p[0, 0]), float(p[0, 1])
-    plat.pose.orientation.w = 1.0
-    plat.scale.x, plat.scale.y, plat.scale.z = 8.0, 8.0, 3.0
-    plat.color = ColorRGBA(r=0.9, g=0.5, b=0.1, a=1.0)
-    water = Marker(header=hdr, ns="water", id=3, type=Marker.LINE_STRIP, action=Marker.ADD)
-    water.pose.orientation.w = 1.0
-    water.scale.x = 0.2
-    eta = float(out.inputs.wave_elevation)
-    x0, x1 = float(min(p[:, 0].min(), 0.0)) - 20.0, float(p[:, 0].max()) + 20.0
-    water.points = [Point(x=x0, z=eta), Point(x=x1, z=eta)]
-    water.color = ColorRGBA(r=0.1, g=0.4, b=1.0, a=0.6)
-    markers = [line, end, plat, water]
-    if model.seabed:
-        values = seabed_contact_values(out, model) if seabed is None else seabed
-        markers += _seabed_markers(hdr, model, values, x0, x1)
-    for mk in markers:
-        mk.id = MARKER_IDS[mk.ns]
-        mk.frame_locked = False
-    if delete_all:
-        clear = Marker(header=hdr, ns="", id=0, action=Marker.DELETEALL)
-        clear.pose.orientation.w = 1.0
-        markers.insert(0, clear)
-    return MarkerArray(markers=markers)
+    return markers_message(marker_values(out, model, seabed), model, stamp_ns, frame_id, delete_all)
 
 
 def build_robot_description(urdf: str):

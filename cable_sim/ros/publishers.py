@@ -1,8 +1,14 @@
 """The node's outputs: publishers, their topics, the rates in steps, and publishing with recording.
 
-Every message the node publishes goes through :meth:`NodeOutputs.publish`, which counts it and
-hands it to the recorder with its simulated-time stamp; the recording also gets ``/tf`` at every
-joint state and ``/tf_static`` + ``robot_description`` at its start (:mod:`cable_sim.ros.tf_output`).
+Every message the node publishes goes through :meth:`NodeOutputs.publish` (an rclpy message) or
+:meth:`NodeOutputs.publish_bytes` (CDR bytes), which count it and hand it to the recorder with its
+simulated-time stamp; the recording also gets ``/tf`` at every joint state and ``/tf_static`` +
+``robot_description`` at its start (:mod:`cable_sim.ros.tf_output`). One serialisation serves both:
+the periodic outputs (joint states, markers, wrenches, tensions, seabed contact) are encoded from
+templates (:mod:`cable_sim.ros.encoders`: a copy and a few array writes, whatever n), and with a
+recording any other message is serialised once and its bytes published and recorded. The wall time
+of each part (outputs, messages, publish, record) goes to the node's
+:class:`cable_sim.ros.timing.TickProfile`.
 Outputs are checked before they are published: an :class:`IntegrationError` or a non-finite value
 stops the run instead. With a seabed, ``seabed_contact`` goes out with the tensions, and the markers
 draw the bed and the touchdown point, from one computation per published step
@@ -16,12 +22,14 @@ controllers need gap-free series; with best effort a reliable subscriber, the de
 (:data:`DESCRIPTION_QOS`), as robot_state_publisher offers it: a late subscriber still gets it.
 
 May import rclpy, the ROS message packages, :mod:`cable_sim.ros.messages`, :mod:`cable_sim.ros.urdf`,
-:mod:`cable_sim.ros.tf_output` and the layers below.
+:mod:`cable_sim.ros.tf_output`, :mod:`cable_sim.ros.encoders`, :mod:`cable_sim.ros.recorder` (cdr,
+definitions) and the layers below.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
+from time import perf_counter
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -34,16 +42,18 @@ from std_msgs.msg import Float64MultiArray, String
 from visualization_msgs.msg import MarkerArray
 
 from cable_sim.integrate import IntegrationError
+from cable_sim.ros import encoders
 from cable_sim.ros.messages import (
     build_float_array,
-    build_joint_state,
-    build_markers,
     build_robot_description,
-    build_seabed_contact,
-    build_wrench,
     clock_message,
+    joint_state_arrays,
+    marker_values,
+    markers_message,
     seabed_contact_values,
 )
+from cable_sim.ros.recorder.cdr import serialize
+from cable_sim.ros.recorder.definitions import type_name_of
 from cable_sim.ros.tf_output import TfRecording
 from cable_sim.ros.urdf import urdf_for_model
 from cable_sim.scene.simulation import Outputs
@@ -109,6 +119,8 @@ class NodeOutputs:
         #: Start the next MarkerArray with DELETEALL (first markers, and after a reset).
         self._clear_markers = True
         self.last: Outputs | None = None
+        #: Template encoders of the periodic outputs (n and frame fixed for the node's life).
+        self.encoders = encoders.OutputEncoders(node.sim.model, node.frame_id)
         #: The outputs whose seabed values were computed last, and those values.
         self._seabed: tuple[Outputs | None, np.ndarray | None] = (None, None)
         #: Called with ``(outputs, stamp)`` after every publication of outputs: the place where a
@@ -130,18 +142,50 @@ class NodeOutputs:
         return int(round(self.node.sim.k * self.node.h * 1e9))
 
     def publish(self, name: str, msg, stamp: int) -> None:
-        """Publish ``msg`` on output ``name`` (if that output exists), count and record it."""
+        """Publish the rclpy message ``msg`` on output ``name`` (if that output exists), count and
+        record it (serialised once, when recording: the same bytes are published and recorded)."""
+        if self.node.recorder is None:
+            pub = self.pub.get(name)
+            if pub is None or not self.node.context.ok():
+                return
+            w = perf_counter()
+            pub.publish(msg)
+            self.node.run.profile.add("publish", perf_counter() - w)
+            self.published[name] += 1
+            return
+        w = perf_counter()
+        data = serialize(msg)
+        self.node.run.profile.add("messages", perf_counter() - w)
+        self.publish_bytes(name, data, type_name_of(msg), stamp)
+
+    def publish_bytes(self, name: str, data: bytes, type_name: str, stamp: int,
+                      joint_positions: np.ndarray | None = None) -> None:
+        """Publish the CDR bytes ``data`` (a ``type_name`` message) on output ``name`` (if that output
+        exists), count and record them; ``joint_positions`` (JointState position) drive the
+        recording's /tf."""
         pub = self.pub.get(name)
         if pub is None or not self.node.context.ok():  # a timer firing while a signal shuts rclpy down
             return
-        pub.publish(msg)
+        profile = self.node.run.profile
+        w = perf_counter()
+        pub.publish(data)
+        w1 = perf_counter()
+        profile.add("publish", w1 - w)
         self.published[name] += 1
         rec = self.node.recorder
         if rec is not None:
             tf = self._tf if self._tf is not None else self._start_tf(rec, stamp)
-            rec.write(self.topic[name], msg, stamp)
-            if name == "joint_states":
-                tf.joint_state(msg.position, stamp)
+            rec.write_serialized(self.topic[name], type_name, data, stamp)
+            if joint_positions is not None:
+                tf.joint_state(joint_positions, stamp)
+            profile.add("record", perf_counter() - w1)
+
+    def _joint_states(self, out: Outputs, stamp: int) -> None:
+        w = perf_counter()
+        pos, vel, eff = joint_state_arrays(out)
+        data = self.encoders.joint_state(pos, vel, eff, stamp)
+        self.node.run.profile.add("messages", perf_counter() - w)
+        self.publish_bytes("joint_states", data, encoders.JOINT_STATE, stamp, joint_positions=pos)
 
     def _start_tf(self, rec: Any, stamp: int) -> TfRecording:
         """Start the recording's TF: ``robot_description`` and ``/tf_static`` at ``stamp``."""
@@ -162,11 +206,14 @@ class NodeOutputs:
     def current(self) -> Outputs | None:
         """The simulation's outputs now; None (and the run stopped) if they cannot be published."""
         sim = self.node.sim
+        w = perf_counter()
         try:
             out = sim.outputs()
         except IntegrationError as exc:
             self.node.run.fail(str(exc))
             return None
+        finally:
+            self.node.run.profile.add("outputs", perf_counter() - w)
         if not (np.all(np.isfinite(out.q)) and np.all(np.isfinite(out.axial_tension))
                 and np.all(np.isfinite(out.fairlead_force))):
             self.node.run.fail("non-finite outputs (not published)")
@@ -178,16 +225,17 @@ class NodeOutputs:
         outputs (markers, topic and diagnostics share them)."""
         done, values = self._seabed
         if done is not out:
+            w = perf_counter()
             values = seabed_contact_values(out, self.node.sim.model)
             self._seabed = (out, values)
+            self.node.run.profile.add("outputs", perf_counter() - w)
         return values
 
     def publish_joint_states(self) -> None:
         """Joint states at the current step (lockstep: once per control period)."""
         out = self.current()
         if out is not None:
-            stamp = self.stamp()
-            self.publish("joint_states", build_joint_state(out, stamp, self.node.frame_id), stamp)
+            self._joint_states(out, self.stamp())
 
     def publish_outputs(self, js: bool = False, mk: bool = False, tn: bool = False,
                         force_all: bool = False) -> None:
@@ -202,18 +250,30 @@ class NodeOutputs:
             node.run.fail("non-finite seabed outputs (not published)")
             return
         if js or force_all:
-            self.publish("joint_states", build_joint_state(out, stamp, frame), stamp)
+            self._joint_states(out, stamp)
+        enc, profile = self.encoders, node.run.profile
         if mk or force_all:
             clear, self._clear_markers = self._clear_markers, False
-            self.publish("cable_markers", build_markers(out, node.sim.model, stamp, frame, clear, seabed),
-                         stamp)
+            w = perf_counter()
+            values = marker_values(out, node.sim.model, seabed)
+            if clear:  # the rare message that starts with DELETEALL: built, not templated
+                msg = markers_message(values, node.sim.model, stamp, frame, delete_all=True)
+                data = serialize(msg)
+            else:
+                data = enc.markers(values, stamp)
+            profile.add("messages", perf_counter() - w)
+            self.publish_bytes("cable_markers", data, encoders.MARKER_ARRAY, stamp)
         if tn or force_all:
-            self.publish("fairlead_tension", build_wrench(-out.fairlead_force, stamp, frame), stamp)
+            w = perf_counter()
+            msgs = [("fairlead_tension", enc.wrench(-out.fairlead_force, stamp), encoders.WRENCH)]
             if "anchor_force" in self.pub:
-                self.publish("anchor_force", build_wrench(-out.anchor_force, stamp, frame), stamp)
-            self.publish("line_tension", build_float_array(out.axial_tension), stamp)
+                msgs.append(("anchor_force", enc.wrench(-out.anchor_force, stamp), encoders.WRENCH))
+            msgs.append(("line_tension", enc.line_tension(out.axial_tension), encoders.FLOAT_ARRAY))
             if seabed is not None:
-                self.publish("seabed_contact", build_seabed_contact(seabed), stamp)
+                msgs.append(("seabed_contact", enc.seabed_contact(seabed), encoders.FLOAT_ARRAY))
+            profile.add("messages", perf_counter() - w)
+            for name, data, type_name in msgs:
+                self.publish_bytes(name, data, type_name, stamp)
         for listener in self.listeners:
             listener(out, stamp)
         problems = node.sim.health(out)
