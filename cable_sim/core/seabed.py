@@ -15,10 +15,12 @@ along the link axis (axial) and the rest (transverse); each gets
 (linear below the regularisation speed v_c, Coulomb above). Every integrand is polynomial in s
 between the breakpoints (delta = 0, f_z = 0, slip = +-v_c); :func:`link_contact` integrates each
 piece with 2-point Gauss-Legendre, exact up to cubics, so the link's resultant force and its
-first moment are exact (no quadrature error).
+first moment are exact (no quadrature error). That piece's quadrature is written once, in
+:func:`cable_sim.core.kernel.contact.gauss_piece`, and run here uncompiled.
 
 Also the outputs a mooring engineer looks at: touchdown point, laid length, total seabed
-reaction (:func:`touchdown`). This module imports only numpy and :mod:`cable_sim.core.model`.
+reaction (:func:`touchdown`). This module imports numpy, :mod:`cable_sim.core.model` and (on
+first use) :mod:`cable_sim.core.kernel.contact`.
 """
 
 from __future__ import annotations
@@ -30,9 +32,19 @@ import numpy as np
 
 from cable_sim.core.model import CableModel
 
-#: 2-point Gauss-Legendre abscissae on [0, 1] and weight (each 1/2).
-_G1 = 0.5 - 0.5 / math.sqrt(3.0)
-_G2 = 0.5 + 0.5 / math.sqrt(3.0)
+_PIECE = None
+
+
+def _gauss_piece():
+    """The quadrature of one piece (:func:`cable_sim.core.kernel.contact.gauss_piece`), run
+    uncompiled. Imported on first use, not at the top: :mod:`cable_sim.core.kernel` imports
+    :mod:`cable_sim.core.dynamics`, which imports this module."""
+    global _PIECE
+    if _PIECE is None:
+        from cable_sim.core.kernel.contact import gauss_piece
+
+        _PIECE = gauss_piece.py_func
+    return _PIECE
 
 
 def _sat(x: float) -> float:
@@ -91,6 +103,7 @@ def link_contact(
         cuts.append((-vc - t0) / t1)
     cuts = sorted(s for s in cuts if 0.0 <= s <= length)
     fa = _sat(vax / vc) if friction else 0.0
+    piece = _gauss_piece()
     fx = fz = mx = mz = pot = sp = 0.0
     for a, b in zip(cuts[:-1], cuts[1:], strict=True):
         h = b - a
@@ -99,23 +112,10 @@ def link_contact(
         sm = 0.5 * (a + b)
         if d0 + d1 * sm <= 0.0:
             continue
-        for g in (_G1, _G2):
-            s = a + g * h
-            wq = 0.5 * h
-            delta = d0 + d1 * s
-            zd = z0 + z1 * s
-            pot += wq * 0.5 * k * delta * delta
-            sp += wq * k * delta * zd
-            if f0 + f1 * sm <= 0.0:
-                continue
-            fn = f0 + f1 * s
-            fxs = 0.0
-            if friction:
-                fxs = -fn * (mu_a * fa + mu_t * _sat((t0 + t1 * s) / vc))
-            fz += wq * fn
-            mz += wq * s * fn
-            fx += wq * fxs
-            mx += wq * s * fxs
+        r = piece(a, h, d0, d1, z0, z1, f0, f1, k, f0 + f1 * sm > 0.0, friction, mu_a, fa, mu_t,
+                  t0, t1, vc)
+        fx, fz, mx, mz = fx + r[0], fz + r[1], mx + r[2], mz + r[3]
+        pot, sp = pot + r[4], sp + r[5]
     del x0
     return fx, fz, mx, mz, pot, sp
 

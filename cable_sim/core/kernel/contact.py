@@ -1,7 +1,8 @@
 """Compiled (numba) seabed contact per link and its O(n) generalised force.
 
 The same exact piecewise integration as :func:`cable_sim.core.seabed.link_contact` written for
-numba on plain floats (:func:`link_contact_nb`), one O(n) pass down the line for every link's
+numba on plain floats (:func:`link_contact_nb`; the quadrature of one piece, :func:`gauss_piece`,
+is the single implementation both use), one O(n) pass down the line for every link's
 resultant and first moment (:func:`seabed_links_nb`, used by the forward-dynamics, joint-force
 and energy kernels), and an O(n) pass that maps them to generalised forces
 (Q_0 = sum F_z, Q_theta_j = t_j . (l_j sum_{i>j} F_i + S_j)).
@@ -27,6 +28,44 @@ def _sat(x: float) -> float:
     if x > 1.0:
         return 1.0
     return x
+
+
+@nb.njit(cache=True, inline="always")
+def gauss_piece(
+    a: float, h: float, d0: float, d1: float, z0: float, z1: float, f0: float, f1: float,
+    k: float, touching: bool, friction: bool, mu_a: float, fa: float, mu_t: float, t0: float,
+    t1: float, vc: float,
+) -> tuple[float, float, float, float, float, float]:
+    """One piece ``[a, a + h]`` of a link between breakpoints, 2-point Gauss-Legendre (exact:
+    the integrands are polynomials of degree <= 3 there): (fx, fz, mx, mz, potential,
+    spring_power) of :func:`link_contact_nb`, the forces only if ``touching``.
+
+    The single implementation of the contact quadrature: the dense reference
+    (:func:`cable_sim.core.seabed.link_contact`) runs it uncompiled (``gauss_piece.py_func``),
+    so it calls nothing but arithmetic and the builtins ``min``/``max``.
+    """
+    fx = 0.0
+    fz = 0.0
+    mx = 0.0
+    mz = 0.0
+    pot = 0.0
+    sp = 0.0
+    wq = 0.5 * h
+    for gi in range(2):
+        s = a + (_G1 if gi == 0 else _G2) * h
+        delta = d0 + d1 * s
+        pot += wq * 0.5 * k * delta * delta
+        sp += wq * k * delta * (z0 + z1 * s)
+        if touching:
+            fn = f0 + f1 * s
+            fxs = 0.0
+            if friction:
+                fxs = -fn * (mu_a * fa + mu_t * min(1.0, max(-1.0, (t0 + t1 * s) / vc)))
+            fz += wq * fn
+            mz += wq * s * fn
+            fx += wq * fxs
+            mx += wq * s * fxs
+    return fx, fz, mx, mz, pot, sp
 
 
 @nb.njit(cache=True, inline="always")
@@ -131,22 +170,15 @@ def link_contact_nb(
         sm = 0.5 * (a + b)
         if d0 + d1 * sm <= 0.0:
             continue
-        touching = f0 + f1 * sm > 0.0
-        wq = 0.5 * h
-        for gi in range(2):
-            s = a + (_G1 if gi == 0 else _G2) * h
-            delta = d0 + d1 * s
-            pot += wq * 0.5 * k * delta * delta
-            sp += wq * k * delta * (z0 + z1 * s)
-            if touching:
-                fn = f0 + f1 * s
-                fxs = 0.0
-                if friction:
-                    fxs = -fn * (mu_a * fa + mu_t * _sat((t0 + t1 * s) / vc))
-                fz += wq * fn
-                mz += wq * s * fn
-                fx += wq * fxs
-                mx += wq * s * fxs
+        pfx, pfz, pmx, pmz, ppot, psp = gauss_piece(a, h, d0, d1, z0, z1, f0, f1, k,
+                                                     f0 + f1 * sm > 0.0, friction, mu_a, fa,
+                                                     mu_t, t0, t1, vc)
+        fx += pfx
+        fz += pfz
+        mx += pmx
+        mz += pmz
+        pot += ppot
+        sp += psp
     return fx, fz, mx, mz, pot, sp
 
 
