@@ -100,11 +100,35 @@ def test_cable_sim_side_ladder():
     assert rows and all(r["code"] == "cable_sim" and r["status"] == "ok" for r in rows)
     at4 = [r for r in rows if r["segments"] == 4]
     assert all(r["tension_rel_error"] > moordyn_peer.TENSION_BOUND for r in at4)
-    last = rows[-1]
-    assert last["segments"] == 12 and last["within_bound"]
-    assert last["step"] == 0.05  # the largest step is already within 1 % at n = 12
+    accepted = [r for r in rows if r["accepted"]]
+    assert len(accepted) == 1 and accepted[0]["segments"] == 12
+    assert accepted[0]["step"] == 0.05  # the largest step is within 1 % at n = 12, and so is h/2
+    assert rows[-1]["step"] == 0.025 and rows[-1]["within_bound"]
     # static fairlead tension (t = 0) within 5 % of the inextensible catenary with touchdown
-    assert last["static_tension_N"] == pytest.approx(_catenary_tension(-0.29), rel=0.05)
+    assert accepted[0]["static_tension_N"] == pytest.approx(_catenary_tension(-0.29), rel=0.05)
+
+
+def test_walk_accepts_a_step_only_when_the_next_one_confirms_it():
+    """A coarse n whose error dips under the bound at one step only (time and discretisation
+    errors cancelling) is not accepted; the walk moves on to the next n, where two consecutive
+    steps within the bound accept the larger one and end the walk."""
+    err = {(10, 0.1): 0.05, (10, 0.05): 0.004, (10, 0.025): 0.017, (10, 0.0125): 0.0171,
+           (20, 0.1): float("nan"), (20, 0.05): 0.008, (20, 0.025): 0.006, (20, 0.0125): 0.006,
+           (40, 0.1): 0.001}
+
+    def runner(n, h):
+        e = err[(n, h)]
+        status = "ok" if math.isfinite(e) else "failed: blow-up"
+        return dict(status=status, tension_rel_error=e, wall_per_sim_s=1.0, wall=1.0,
+                    within_bound=bool(status == "ok" and e <= moordyn_peer.TENSION_BOUND))
+
+    rows = moordyn_peer._walk(runner, (10, 20, 40), (0.1, 0.05, 0.025, 0.0125), "test")
+    # n = 10 stops after the stalled pair 0.025 / 0.0125; n = 40 is never run
+    assert [r["tension_rel_error"] for r in rows][:4] == [0.05, 0.004, 0.017, 0.0171]
+    assert len(rows) == 7
+    accepted = [i for i, r in enumerate(rows) if r["accepted"]]
+    assert accepted == [5]  # n = 20, h = 0.05 (confirmed by h = 0.025)
+    assert moordyn_peer._best(rows) is rows[5]
 
 
 def _catenary_tension(fairlead_z: float) -> float:

@@ -10,10 +10,11 @@ links, rk4 at a small step; MoorDyn: ``md_conv`` segments at a small dtM); the e
 ``max_t |T(t) - T_conv(t)| / max_t T_conv``.
 
 For each code and scheme the segment counts are walked upwards and, at each, the steps
-downwards; the first step within :data:`TENSION_BOUND` ends that segment count's ladder (a run
-whose error hardly changed from the previous step is limited by its segment count, and the next
-count is tried); the first segment count with a run within the bound ends the walk (more
-segments cost more at a smaller step). Each code is reported at its cheapest run within the bound:
+downwards; the first step within :data:`TENSION_BOUND` whose next smaller step is within it too
+is accepted and ends that segment count's ladder (a run whose error hardly changed from the
+previous step is limited by its segment count, and the next count is tried); the first segment
+count with an accepted run ends the walk (more segments cost more at a smaller step). Each code
+is reported at its cheapest accepted run:
 segment count, step, wall time per simulated second (the shortest of ``repeats`` timings, taken
 alternately for the two codes so that both see the same machine load). Wall time: cable_sim's
 time stepping including its input sampling (:func:`.runs.simulate`'s ``wall + wall_inputs``),
@@ -105,20 +106,28 @@ def _row(code: str, scheme: str, n: int, step: float, duration: float, status: s
 
 
 def _walk(runner, ns, steps, log_name: str) -> list[dict]:
-    """The ladder of one scheme: ``runner(n, step) -> row``, see the module docstring."""
+    """The ladder of one scheme: ``runner(n, step) -> row``, see the module docstring. A run
+    within the bound is *accepted* only when the next smaller step is within it too (or it is the
+    ladder's last step): a coarse n whose time error happens to cancel its discretisation error
+    at one step is not taken for converged."""
     rows: list[dict] = []
     for n in ns:
         prev = None
-        found = False
+        cand = None
         for h in sorted(steps, reverse=True):
             row = runner(n, h)
+            row["accepted"] = False
             rows.append(row)
             log(f"moordyn peer: {log_name} n={n} step={h:g}: {row['status']}"
                 + (f" tension err {row['tension_rel_error']:.3g}, {row['wall_per_sim_s']:.4g} "
                    "wall s / sim s" if row["status"] == "ok" else ""))
             if row["within_bound"]:
-                found = True
-                break
+                if cand is not None:
+                    cand["accepted"] = True
+                    break
+                cand = row
+                continue
+            cand = None
             if row["status"].startswith("skipped"):
                 break
             e = row["tension_rel_error"]
@@ -126,7 +135,10 @@ def _walk(runner, ns, steps, log_name: str) -> list[dict]:
                 break  # limited by n, not by the step
             if row["status"] == "ok":
                 prev = e
-        if found:
+        else:
+            if cand is not None:  # within the bound at the ladder's last step
+                cand["accepted"] = True
+        if any(r["accepted"] for r in rows):
             break
     return rows
 
@@ -159,7 +171,7 @@ def _moordyn(ps: PeerSettings, line, heave, conv: np.ndarray, version: str) -> l
 
 
 def _best(rows: list[dict]) -> dict | None:
-    ok = [r for r in rows if r["within_bound"]]
+    ok = [r for r in rows if r.get("accepted")]
     return min(ok, key=lambda r: r["wall"]) if ok else None
 
 
