@@ -79,6 +79,17 @@ def _added_mass_power(m, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> floa
     return -float(np.sum(normal + axial))
 
 
+def test_added_mass_power_helper_is_the_dense_power() -> None:
+    """The O(n) added-mass power above = ``dynamics.power``'s (dense M_a) at random states."""
+    m = load_scene("mooring_line").with_links(12).model()
+    rng = np.random.default_rng(1)
+    for _ in range(3):
+        q = np.concatenate([[rng.normal()], rng.uniform(0.5, 2.0, m.n)])
+        qd, qdd = rng.normal(size=m.ndof), rng.normal(size=m.ndof)
+        ref = dynamics.power(m, q, qd, qdd=qdd)["added_mass"]
+        assert abs(_added_mass_power(m, q, qd, qdd) - ref) < 1e-12 * abs(ref)
+
+
 def _power(sim: Simulation, y: np.ndarray, inputs) -> float:
     """Power of every non-conservative force; with added mass its part in O(n) (the dense
     ``dynamics.power`` builds M_a: O(n^2) per call, which made the large-n case crawl)."""

@@ -88,7 +88,8 @@ class LinearlyImplicitEuler(_LinearlyImplicit):
     Order 1. One force evaluation and one O(n) solve per step:
     ``(M + hD + h^2K) a* = f(q, v) - hK v``, ``v' = v + h a*``, ``q' = q + h v'``. For the terms
     in ``D`` and ``K`` (joint springs/dampers, heave spring/damper, paper or Morison drag,
-    tension stiffness) it is implicit Euler: L-stable, no step limit from them, but it damps
+    tension stiffness, the seabed's contact spring and damper over the part of each link in
+    the bed now or at ``q + h v``) it is implicit Euler: L-stable, no step limit from them, but it damps
     fast physical modes by O(h). For the rest it is symplectic Euler (stable for
     ``h omega < 2``). MuJoCo's "implicitfast" is the same idea.
 
