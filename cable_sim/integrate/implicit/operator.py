@@ -20,6 +20,12 @@ W-method need not be the exact Jacobian): the part of ``-dQ_b/dq`` from turning 
 (diagonal in absolute angles, like gravity's; the bed's reaction lowers the tension and with it
 the tension stiffness), the damper's ``d zdot/dq`` (velocity times curvature), the jump of the
 damper's force where a link moving down enters the bed, and friction (off by default).
+That is the operator at ``horizon = 0`` (:func:`operator_solve`, :func:`operator_product`).
+The schemes pass their step as the horizon: then ``[a, b]`` is the smallest interval holding
+the part of the link in the bed now and at ``q + h qd``, the damper's cut ignored, so that a
+link touching down or rising out of the bed during the step is already stiff in W (without
+it the mooring line's implicit runs were limited to about the RK4 step, see
+:func:`_contact_terms`).
 
 The articulated inertia seen at a pin is then 3x3 instead of
 the 2x2 of the forward dynamics; the inward recursion (:func:`_op_inward`) is specific to it,
@@ -30,8 +36,8 @@ of :mod:`cable_sim.core.kernel.sweeps`.
 Factorisation workspace: ``W`` (``_NW`` rows of n per-link values), ``S`` (``_NS`` scalars),
 ``X`` (the two unit end-force solutions ``M~^-1 J^T``, anchored end or heavy load).
 
-Integrate layer: imports numba, numpy, :mod:`cable_sim.core.kernel` (packing, sweeps) and
-:mod:`cable_sim.core.model`.
+Integrate layer: imports numba, numpy, :mod:`cable_sim.core.kernel` (contact, packing,
+sweeps) and :mod:`cable_sim.core.model`.
 """
 
 from __future__ import annotations
