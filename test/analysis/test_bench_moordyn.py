@@ -92,43 +92,44 @@ def test_peer_skips_without_moordyn(monkeypatch):
 
 
 def test_cable_sim_side_ladder():
-    """The cable_sim ladder on the scene: converged-against-itself is exact, a coarse n is not,
-    and a walk stops at the first step within the bound."""
+    """The cable_sim ladder on the scene: a coarse n whose time-converged tension is off by more
+    than 1 % is not walked; at an adequate n the largest step within 1 % is accepted."""
     ps = moordyn_peer.PeerSettings(duration=2.0, cs_n=(4, 12), cs_integs=("rk4",), cs_steps=(0.05, 0.025))
     conv = moordyn_peer.simulate("mooring_line", 12, "rk4", 0.025, 2.0).tension
     rows = moordyn_peer._cable_sim(ps, conv)
     assert rows and all(r["code"] == "cable_sim" and r["status"] == "ok" for r in rows)
-    at4 = [r for r in rows if r["segments"] == 4]
-    assert all(r["tension_rel_error"] > moordyn_peer.TENSION_BOUND for r in at4)
-    accepted = [r for r in rows if r["accepted"]]
-    assert len(accepted) == 1 and accepted[0]["segments"] == 12
-    assert accepted[0]["step"] == 0.05  # the largest step is within 1 % at n = 12, and so is h/2
-    assert rows[-1]["step"] == 0.025 and rows[-1]["within_bound"]
+    fine = {r["segments"]: r for r in rows if r["role"] == "time-converged"}
+    assert set(fine) == {4, 12} and all(r["step"] == moordyn_peer.CS_FINE[1] for r in fine.values())
+    assert fine[4]["tension_rel_error"] > moordyn_peer.TENSION_BOUND  # 4 links: too coarse
+    assert fine[12]["tension_rel_error"] < 1e-3  # same n, rk4 at 5 ms vs 25 ms
+    ladder = [r for r in rows if r["role"] == "ladder"]
+    assert [(r["segments"], r["step"], r["accepted"]) for r in ladder] == [(12, 0.05, True)]
     # static fairlead tension (t = 0) within 5 % of the inextensible catenary with touchdown
-    assert accepted[0]["static_tension_N"] == pytest.approx(_catenary_tension(-0.29), rel=0.05)
+    assert ladder[0]["static_tension_N"] == pytest.approx(_catenary_tension(-0.29), rel=0.05)
 
 
-def test_walk_accepts_a_step_only_when_the_next_one_confirms_it():
-    """A coarse n whose error dips under the bound at one step only (time and discretisation
-    errors cancelling) is not accepted; the walk moves on to the next n, where two consecutive
-    steps within the bound accept the larger one and end the walk."""
-    err = {(10, 0.1): 0.05, (10, 0.05): 0.004, (10, 0.025): 0.017, (10, 0.0125): 0.0171,
-           (20, 0.1): float("nan"), (20, 0.05): 0.008, (20, 0.025): 0.006, (20, 0.0125): 0.006,
-           (40, 0.1): 0.001}
+def test_walk_tries_only_counts_adequate_when_time_converged():
+    """A coarse n whose error dips under the bound at one step (time and discretisation errors
+    cancelling) is not walked: its time-converged run is over the bound. At the first adequate n
+    the largest step within the bound is accepted and the walk ends."""
+    err = {(10, 0.1): 0.05, (10, 0.05): 0.004, (10, 0.001): 0.017,
+           (20, 0.1): float("nan"), (20, 0.05): 0.008, (20, 0.025): 0.006, (20, 0.001): 0.006,
+           (40, 0.1): 0.001, (40, 0.001): 0.001}
+    calls = []
 
     def runner(n, h):
+        calls.append((n, h))
         e = err[(n, h)]
         status = "ok" if math.isfinite(e) else "failed: blow-up"
         return dict(status=status, tension_rel_error=e, wall_per_sim_s=1.0, wall=1.0,
                     within_bound=bool(status == "ok" and e <= moordyn_peer.TENSION_BOUND))
 
-    rows = moordyn_peer._walk(runner, (10, 20, 40), (0.1, 0.05, 0.025, 0.0125), "test")
-    # n = 10 stops after the stalled pair 0.025 / 0.0125; n = 40 is never run
-    assert [r["tension_rel_error"] for r in rows][:4] == [0.05, 0.004, 0.017, 0.0171]
-    assert len(rows) == 7
-    accepted = [i for i, r in enumerate(rows) if r["accepted"]]
-    assert accepted == [5]  # n = 20, h = 0.05 (confirmed by h = 0.025)
-    assert moordyn_peer._best(rows) is rows[5]
+    fine = moordyn_peer._fine(runner, 0.001, "test")
+    rows = moordyn_peer._walk(runner, fine, (10, 20, 40), (0.1, 0.05, 0.025), "test")
+    assert calls == [(10, 0.001), (20, 0.001), (20, 0.1), (20, 0.05)]
+    assert [r["accepted"] for r in rows] == [False, True] and rows[1]["tension_rel_error"] == 0.008
+    assert moordyn_peer._best(rows) is rows[1]
+    assert set(fine.done) == {10, 20} and fine.done[10]["role"] == "time-converged"
 
 
 def _catenary_tension(fairlead_z: float) -> float:

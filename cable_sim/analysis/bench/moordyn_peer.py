@@ -9,14 +9,16 @@ state included) is compared with each code's *own* converged answer (cable_sim: 
 links, rk4 at a small step; MoorDyn: ``md_conv`` segments at a small dtM); the error of a run is
 ``max_t |T(t) - T_conv(t)| / max_t T_conv``.
 
-For each code and scheme the segment counts are walked upwards and, at each, the steps
-downwards; the first step within :data:`TENSION_BOUND` whose next smaller step is within it too
-is accepted and ends that segment count's ladder (a run whose error hardly changed from the
-previous step is limited by its segment count, and the next count is tried); the first segment
-count with an accepted run ends the walk (more segments cost more at a smaller step). Each code
-is reported at its cheapest accepted run:
-segment count, step, wall time per simulated second (the shortest of ``repeats`` timings, taken
-alternately for the two codes so that both see the same machine load). Wall time: cable_sim's
+For each code the segment counts are walked upwards. A count is tried only when the code's
+time-converged run at that count (cable_sim: :data:`CS_FINE`; MoorDyn: dtM = :data:`MD_FINE`) is
+within :data:`TENSION_BOUND` of the converged answer: the discretisation in n must be good
+enough on its own (a coarse n whose time error happens to cancel its discretisation error at
+some step is not taken for converged). At a count that is, each scheme walks its steps
+downwards, and the first within the bound is accepted; the first count with an accepted run
+ends the walk (more segments cost more at a smaller step). Each code is reported at its
+cheapest accepted run: segment count, step, wall time per simulated second (the shortest of
+``repeats`` timings, taken alternately for the two codes so that both see the same machine
+load). Wall time: cable_sim's
 time stepping including its input sampling (:func:`.runs.simulate`'s ``wall + wall_inputs``),
 MoorDyn's ``Step`` calls including their Python call overhead (100 calls per simulated second).
 The two converged answers are compared (static, mean and max fairlead tension and the whole
@@ -29,6 +31,7 @@ Part of the analysis layer: may import every layer; here scene and the bench mod
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -45,16 +48,17 @@ CS_N = (10, 20, 40, 60, 80, 120, 160)
 CS_INTEGS = ("rk4", "rosenbrock2", "ros34pw2")
 CS_STEPS = (0.5, 0.25, 0.1, 0.05, 0.025, 0.0125, 0.005, 0.0025, 0.001)
 CS_CONV = (320, "rk4", 0.001)
+#: cable_sim's time-converged run at each n: (scheme, step).
+CS_FINE = ("rk4", 0.005)
 MD_SEGS = (10, 20, 40, 60, 80, 120, 160)
 #: MoorDyn's default scheme (its explicit RK2); the steps bracket its stability limit at each n.
 MD_SCHEMES = ("RK2",)
 MD_STEPS = (0.01, 0.005, 0.002, 0.0015, 0.001, 0.00075, 0.0005, 0.0003, 0.0002)
 MD_CONV = (320, 0.0002)
+#: MoorDyn's time-converged run at each n: dtM [s] (its first scheme).
+MD_FINE = 0.0002
 #: Timings of each code's chosen run (alternating between the codes; the shortest counts).
 REPEATS = 5
-#: A ladder whose error changed by less than this fraction from the previous step is limited by
-#: its segment count: the next count is tried.
-STALL = 0.2
 
 
 @dataclass
@@ -72,6 +76,8 @@ class PeerSettings:
     md_schemes: tuple = MD_SCHEMES
     md_steps: tuple = MD_STEPS
     md_conv: tuple = MD_CONV
+    cs_fine: tuple = CS_FINE
+    md_fine: float = MD_FINE
     ea: float = EA_DEFAULT
     repeats: int = REPEATS
 
@@ -105,69 +111,73 @@ def _row(code: str, scheme: str, n: int, step: float, duration: float, status: s
                 max_tension_N=float(np.max(ten)) if ok else float("nan"))
 
 
-def _walk(runner, ns, steps, log_name: str) -> list[dict]:
-    """The ladder of one scheme: ``runner(n, step) -> row``, see the module docstring. A run
-    within the bound is *accepted* only when the next smaller step is within it too (or it is the
-    ladder's last step): a coarse n whose time error happens to cancel its discretisation error
-    at one step is not taken for converged."""
+def _walk(runner, fine, ns, steps, log_name: str) -> list[dict]:
+    """The ladder of one scheme: ``runner(n, step) -> row``; ``fine(n) -> row`` is the code's
+    time-converged run at n (shared by its schemes). See the module docstring."""
     rows: list[dict] = []
     for n in ns:
-        prev = None
-        cand = None
+        f = fine(n)
+        if not f["within_bound"]:
+            continue  # n itself is too coarse: no step can be trusted to be within the bound
         for h in sorted(steps, reverse=True):
             row = runner(n, h)
-            row["accepted"] = False
+            row["role"] = "ladder"
+            row["accepted"] = bool(row["within_bound"])
             rows.append(row)
             log(f"moordyn peer: {log_name} n={n} step={h:g}: {row['status']}"
                 + (f" tension err {row['tension_rel_error']:.3g}, {row['wall_per_sim_s']:.4g} "
                    "wall s / sim s" if row["status"] == "ok" else ""))
-            if row["within_bound"]:
-                if cand is not None:
-                    cand["accepted"] = True
-                    break
-                cand = row
-                continue
-            cand = None
-            if row["status"].startswith("skipped"):
+            if row["accepted"] or row["status"].startswith("skipped"):
                 break
-            e = row["tension_rel_error"]
-            if row["status"] == "ok" and prev is not None and abs(e - prev) <= STALL * prev:
-                break  # limited by n, not by the step
-            if row["status"] == "ok":
-                prev = e
-        else:
-            if cand is not None:  # within the bound at the ladder's last step
-                cand["accepted"] = True
         if any(r["accepted"] for r in rows):
             break
     return rows
 
 
+def _fine(runner, step: float, log_name: str) -> Callable[[int], dict]:
+    """``fine(n)``: the row of ``runner(n, step)`` (memoised), marked as the time-converged run."""
+    done: dict[int, dict] = {}
+
+    def fine(n: int) -> dict:
+        if n not in done:
+            row = runner(n, step)
+            row.update(role="time-converged", accepted=False)
+            done[n] = row
+            log(f"moordyn peer: {log_name} n={n} time-converged (step {step:g}): {row['status']}"
+                + (f" tension err {row['tension_rel_error']:.3g}" if row["status"] == "ok" else ""))
+        return done[n]
+
+    fine.done = done  # type: ignore[attr-defined]
+    return fine
+
+
 def _cable_sim(ps: PeerSettings, conv: np.ndarray) -> list[dict]:
+    def run(n: int, h: float, integ: str) -> dict:
+        r = simulate(SCENE, n, integ, h, ps.duration, budget=ps.budget, kernel=ps.kernel)
+        return _row("cable_sim", integ, n, h, ps.duration, r.status, r.wall + r.wall_inputs,
+                    r.tension, conv)
+
+    fine = _fine(lambda n, h: run(n, h, ps.cs_fine[0]), ps.cs_fine[1], "cable_sim")
     rows: list[dict] = []
     for integ in ps.cs_integs:
-        if is_adaptive(integ):
-            continue
-
-        def runner(n: int, h: float, integ=integ) -> dict:
-            r = simulate(SCENE, n, integ, h, ps.duration, budget=ps.budget, kernel=ps.kernel)
-            return _row("cable_sim", integ, n, h, ps.duration, r.status, r.wall + r.wall_inputs,
-                        r.tension, conv)
-
-        rows += _walk(runner, ps.cs_n, ps.cs_steps, f"cable_sim {integ}")
-    return rows
+        if not is_adaptive(integ):
+            rows += _walk(lambda n, h, integ=integ: run(n, h, integ), fine, ps.cs_n, ps.cs_steps,
+                          f"cable_sim {integ}")
+    return [*fine.done.values(), *rows]
 
 
 def _moordyn(ps: PeerSettings, line, heave, conv: np.ndarray, version: str) -> list[dict]:
+    def run(n: int, h: float, scheme: str) -> dict:
+        r = run_moordyn(line, n, h, ps.duration, heave, SAMPLE, ps.budget, scheme)
+        return _row(f"moordyn {version}", scheme, n, h, ps.duration, r.status, r.wall, r.tension,
+                    conv, r.setup_wall)
+
+    fine = _fine(lambda n, h: run(n, h, ps.md_schemes[0]), ps.md_fine, "moordyn")
     rows: list[dict] = []
     for scheme in ps.md_schemes:
-        def runner(n: int, h: float, scheme=scheme) -> dict:
-            r = run_moordyn(line, n, h, ps.duration, heave, SAMPLE, ps.budget, scheme)
-            return _row(f"moordyn {version}", scheme, n, h, ps.duration, r.status, r.wall, r.tension,
-                        conv, r.setup_wall)
-
-        rows += _walk(runner, ps.md_segs, ps.md_steps, f"moordyn {scheme}")
-    return rows
+        rows += _walk(lambda n, h, scheme=scheme: run(n, h, scheme), fine, ps.md_segs, ps.md_steps,
+                      f"moordyn {scheme}")
+    return [*fine.done.values(), *rows]
 
 
 def _best(rows: list[dict]) -> dict | None:
