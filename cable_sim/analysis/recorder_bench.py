@@ -11,7 +11,10 @@ default, and reports:
   recorded from one serialisation (`write(..., serialized=data)`, `publisher.publish(data)`);
 - the caller's cost of :meth:`RunRecorder.write` per message type (serialise + enqueue), median
   / 99th percentile / max [us];
-- the background writer's sustained rate [messages / s, MB / s] and the compression ratio.
+- the background writer's sustained rate [messages / s, MB / s] and the compression ratio;
+- the node itself (:class:`cable_sim.ros.node.CableSimNode` in this process, ``clock_mode`` fast, its
+  default output rates): simulated seconds per wall second with recording off and on, alternated,
+  and the recording overhead (issue 13's figure: 1 - on / off), with the node's tick split.
 
 Writes ``recorder_bench.csv`` and ``recorder_bench.png`` under ``results/recording/``.
 """
@@ -177,6 +180,58 @@ def writer_rate(scene, n_msgs: int, tmpdir: Path) -> dict:
             "file_MB": size / 1e6}
 
 
+def node_fast_mode(scene: str, n_links: int, seconds: float, record: bool, tmpdir: Path) -> dict:
+    """The node in fast clock mode for ``seconds`` of wall time: steps/s and the tick split."""
+    import rclpy
+    from rclpy.executors import SingleThreadedExecutor
+    from rclpy.parameter import Parameter
+
+    from cable_sim.ros.node import CableSimNode
+
+    path = tmpdir / "node_fast.mcap"
+    rclpy.init()
+    node = CableSimNode(parameter_overrides=[
+        Parameter("scene", value=scene), Parameter("clock_mode", value="fast"),
+        Parameter("n_links", value=n_links), Parameter("record", value=record),
+        Parameter("record_path", value=str(path))])
+    ex = SingleThreadedExecutor()
+    ex.add_node(node)
+    try:
+        for _ in range(20):  # start-up (compilation, first outputs) outside the timing
+            ex.spin_once(timeout_sec=0.01)
+        k0, w0 = node.sim.k, time.perf_counter()
+        node.run.profile.reset()
+        while time.perf_counter() - w0 < seconds:
+            ex.spin_once(timeout_sec=0.01)
+        wall, steps = time.perf_counter() - w0, node.sim.k - k0
+        split = node.run.profile.split_us()
+        ticks = node.run.profile.ticks
+    finally:
+        node.close()
+        ex.shutdown()
+        node.destroy_node()
+        rclpy.try_shutdown()
+    if path.exists():
+        path.unlink()
+    return {"steps_per_s": steps / wall, "realtime_factor": steps * node.h / wall, "ticks": ticks,
+            **{f"split_{k}_us_per_step": v * ticks / max(steps, 1) for k, v in split.items()}}
+
+
+def node_overhead(scene: str, n_links: int, seconds: float, repeats: int, tmpdir: Path) -> list[dict]:
+    """Recording off / on, alternated ``repeats`` times: median rows and the overhead row."""
+    runs: dict[bool, list[dict]] = {False: [], True: []}
+    for _ in range(repeats):
+        for record in (False, True):
+            runs[record].append(node_fast_mode(scene, n_links, seconds, record, tmpdir))
+    rows = []
+    for record, rr in runs.items():
+        med = {k: statistics.median(r[k] for r in rr) for k in rr[0]}
+        rows.append({"kind": "node_fast", "mode": "record" if record else "no record", **med})
+    rows.append({"kind": "node_overhead", "mode": "record vs no record",
+                 "overhead": 1.0 - rows[1]["steps_per_s"] / rows[0]["steps_per_s"]})
+    return rows
+
+
 def main(argv: list[str] | None = None) -> int:
     """Run the benchmark and write CSV + PNG."""
     ap = argparse.ArgumentParser(prog="python -m cable_sim.analysis.recorder_bench",
@@ -185,6 +240,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--links", type=int, default=80)
     ap.add_argument("--duration", type=float, default=20.0, help="simulated seconds per run")
     ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--node-seconds", type=float, default=10.0,
+                    help="wall seconds per node run in fast mode (0: skip the node)")
     ap.add_argument("--out", default="results/recording")
     a = ap.parse_args(argv)
     scene = load_scene(a.scene, {"n_links": a.links})
@@ -224,6 +281,17 @@ def main(argv: list[str] | None = None) -> int:
             rows.append({"kind": "write", **c})
             print(f"{c['message']:32s} {c['bytes']:7d} {c['write_median_us']:10.1f} {c['write_p99_us']:8.1f} "
                   f"{c['write_max_us']:8.1f} {c['serialize_median_us']:13.1f} {c['compression_ratio']:10.1f}")
+        if a.node_seconds > 0:
+            print(f"\nthe node in fast clock mode ({a.scene}, n = {a.links}, default output rates), "
+                  f"{a.node_seconds:g} s of wall per run, recording off/on alternated, "
+                  f"median of {a.repeats}:")
+            node_rows = node_overhead(a.scene, a.links, a.node_seconds, a.repeats, tmp)
+            rows += node_rows
+            for r in node_rows[:2]:
+                split = ", ".join(f"{k[6:-15]} {v:.1f}" for k, v in r.items() if k.startswith("split_"))
+                print(f"  {r['mode']:10s} {r['steps_per_s']:8.0f} steps/s  x{r['realtime_factor']:.1f} "
+                      f"real time; us per step: {split}")
+            print(f"  recording overhead: {100 * node_rows[2]['overhead']:.1f} % fewer steps/s")
         wr = writer_rate(scene, 20000, tmp)
         rows.append({"kind": "writer", **wr})
         print(f"\nbackground writer: {wr['messages_per_s']:.0f} JointState/s "
