@@ -2,11 +2,11 @@
 
 :func:`run_moordyn` writes the input file (:mod:`.moordyn_input`), lets MoorDyn find its initial
 conditions (its stationary solver at dtM = :data:`IC_DT`; timed apart as ``setup_wall``), sets
-the run's dtM, then drives the coupled fairlead through a given heave z(t) and records the magnitude of the force the line exerts on it every
-``sample`` seconds. The fairlead moves along the piecewise-linear interpolant of z(t) between
-coupling instants (MoorDyn extrapolates a coupled point linearly from the position and velocity
-it is given, so the velocity passed is the secant over the coupling step: the path is continuous).
-Only the ``moordyn.Step`` calls are timed.
+the run's dtM, then drives the coupled fairlead through a given heave z(t) and records the
+magnitude of the force the line exerts on it every ``sample`` seconds. The fairlead moves along
+the piecewise-linear interpolant of z(t) between coupling instants (MoorDyn extrapolates a coupled
+point linearly from the position and velocity it is given, so the velocity passed is the secant
+over the coupling step: the path is continuous). Only the ``moordyn.Step`` calls are timed.
 
 ``moordyn`` is optional (bench extra); :func:`moordyn_version` is None without it.
 
