@@ -47,6 +47,14 @@ def _gauss_piece():
     return _PIECE
 
 
+def _links_compiled():
+    """:func:`cable_sim.core.kernel.contact.seabed_links_nb` (compiled; imported on first use for
+    the reason given in :func:`_gauss_piece`)."""
+    from cable_sim.core.kernel.contact import seabed_links_nb
+
+    return seabed_links_nb
+
+
 def _sat(x: float) -> float:
     return -1.0 if x < -1.0 else (1.0 if x > 1.0 else x)
 
@@ -170,31 +178,24 @@ def seabed_outputs(model: CableModel, q: np.ndarray, qd: np.ndarray | None = Non
     if not model.seabed:
         return SeabedOutputs(0.0, float("nan"), 0.0, 0.0)
     qd = np.zeros_like(q) if qd is None else qd
-    p, v = _joints(model, q, qd)
-    zb, l = model.seabed_z, model.length
-    s_top = np.concatenate([[0.0], np.cumsum(l)])  # arc length of joint i from the fairlead
-    laid = 0.0
-    first = None  # smallest arc length from the fairlead that penetrates
-    reaction = 0.0
-    for i in range(model.n):
-        d_a, d_b = zb - p[i, 1], zb - p[i + 1, 1]  # penetration at both ends of link i
-        if d_a <= 0.0 and d_b <= 0.0:
-            continue
-        if d_a > 0.0 and d_b > 0.0:
-            frac_in, start = 1.0, 0.0
-        elif d_a > 0.0:
-            frac_in, start = d_a / (d_a - d_b), 0.0
-        else:
-            start = d_a / (d_a - d_b)
-            frac_in = 1.0 - start
-        laid += frac_in * l[i]
-        if first is None:
-            first = (i, start)
-        reaction += link_contact(p[i, 0], p[i, 1], v[i, 0], v[i, 1], q[i + 1], qd[i + 1], l[i], zb,
-                                 model.seabed_k[i], model.seabed_c[i], 0.0, 0.0, 1.0)[1]
-    if first is None:
+    p, _ = _joints(model, q, qd)
+    zb, l, n = model.seabed_z, model.length, model.n
+    d = zb - p[:, 1]  # penetration at every joint
+    da, db = d[:-1], d[1:]  # at both ends of each link
+    inside = (da > 0.0) | (db > 0.0)
+    if not inside.any():
         return SeabedOutputs(0.0, float("nan"), 0.0, 0.0)
-    i, frac = first
-    s_td = s_top[i] + frac * l[i]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        cross = np.where(inside & ((da <= 0.0) | (db <= 0.0)), da / (da - db), 0.0)
+    # fraction of each link below the bed and where (from its upper joint) that part starts
+    frac_in = np.where(da > 0.0, np.where(db > 0.0, 1.0, cross), np.where(db > 0.0, 1.0 - cross, 0.0))
+    start = np.where((da <= 0.0) & (db > 0.0), cross, 0.0)
+    laid = float(np.dot(frac_in, l))
+    i = int(np.argmax(inside))  # the first link (from the fairlead) below the bed
+    frac = float(start[i])
+    s_td = float(l[:i].sum()) + frac * l[i]
     x_td = p[i, 0] + frac * (p[i + 1, 0] - p[i, 0])
-    return SeabedOutputs(float(s_top[-1] - s_td), float(x_td), float(laid), float(reaction))
+    F, S, zero = np.empty((n, 2)), np.empty((n, 2)), np.zeros(n)
+    _links_compiled()(l, zb, model.seabed_k, model.seabed_c, zero, zero, 1.0, q, qd, F, S)
+    reaction = float(F[:, 1].sum())
+    return SeabedOutputs(float(l.sum() - s_td), float(x_td), laid, reaction)
