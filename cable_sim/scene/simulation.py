@@ -98,6 +98,15 @@ def _energy_fn(kernel: str):
     return dynamics.total_energy
 
 
+def _joint_forces_fn(kernel: str):
+    """Joint forces of the kernel: the O(n) compiled Newton recursion, or the dense reference."""
+    if kernel == "fast":
+        from cable_sim.core.kernel.joint_forces import joint_forces
+
+        return joint_forces
+    return dynamics.joint_forces
+
+
 class Simulation:
     """A scene being simulated.
 
@@ -162,6 +171,7 @@ class Simulation:
             self._program = pack_program(self._heave_signal.packed(), self._wave_signal.packed())
         self.system.set_inputs(self.inputs_at, self._program)
         self._energy = _energy_fn(self.kernel)
+        self._joint_forces = _joint_forces_fn(self.kernel)
         self.y0 = scene.initial_state(self.model)
         self.reset()
 
@@ -264,7 +274,7 @@ class Simulation:
                     self.t, f"singular dynamics on a free-end line (numerical instability?): {exc}"
                 ) from exc
             raise IntegrationError(self.t, f"singular dynamics (line pulled straight?): {exc}") from exc
-        F = dynamics.joint_forces(m, q, qd, qdd, lam)
+        F = self._joint_forces(m, q, qd, qdd, lam)
         torques = (m.joint_k * dynamics.relative_angles(q[1:])
                    + m.joint_c * dynamics.relative_angles(qd[1:]))
         pos = dynamics.joint_positions(m, q)
