@@ -52,6 +52,7 @@ from cable_sim.core import kernel as fast
 from cable_sim.core.kernel.checks import STATUS_OK, STATUS_SINGULAR, check_packed
 from cable_sim.core.kernel.forward import fd_packed
 from cable_sim.core.kernel.joint_forces import joint_forces_packed
+from cable_sim.core.kernel.signals import sample_program
 from cable_sim.core.model import CableModel
 from cable_sim.core.params import CableParams
 from cable_sim.core.system import CableSystem
@@ -530,6 +531,11 @@ class Ros34PW2Adaptive(Ros34PW2):
     def _sample(self, t0: float, t1: float) -> tuple[float, np.ndarray, np.ndarray]:
         k = max(3, int(np.ceil((t1 - t0) / self.input_spacing - 1e-9)))
         dt = (t1 - t0) / k
+        prog = self.system.input_program()
+        if prog is not None:  # the scene's built-in signals: one compiled call, same times
+            u, eta = np.empty((k + 1, 1)), np.empty((k + 1, 1))
+            sample_program(prog, float(t0), float(dt), np.zeros(1), u, eta)
+            return dt, u.reshape(k + 1), eta.reshape(k + 1)
         ins = [self.system.input_at(t0 + i * dt) for i in range(k + 1)]
         return (dt, np.array([i.heave_force for i in ins]),
                 np.array([i.wave_elevation for i in ins]))
