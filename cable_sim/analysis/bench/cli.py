@@ -156,8 +156,8 @@ def moordyn_step(plan: Plan) -> PeerResult:
     ps.cs_integs = tuple(i for i in ps.cs_integs if i in plan.avail)
     try:
         res = moordyn_peer(ps)
-    except RuntimeError as exc:
-        log(f"MoorDyn peer: {exc}")
+    except (RuntimeError, ValueError) as exc:  # a converged run failed / the scene does not map
+        log(f"MoorDyn peer skipped: {exc}")
         return PeerResult()
     write_csv(plan.out / "moordyn_ladder.csv", res.ladder)
     write_csv(plan.out / "moordyn.csv", res.summary)
