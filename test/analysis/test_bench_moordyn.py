@@ -10,7 +10,6 @@ an inextensible catenary with touchdown solved in the test (MODEL.md's closed fo
 
 from __future__ import annotations
 
-import importlib.util
 import math
 from pathlib import Path
 
@@ -20,9 +19,10 @@ import yaml
 from scipy.optimize import brentq
 
 from cable_sim.analysis.bench import moordyn_input, moordyn_peer
+from cable_sim.analysis.bench.moordyn_run import moordyn_version
 from cable_sim.scene.scenes import load_scene
 
-HAS_MOORDYN = importlib.util.find_spec("moordyn") is not None
+HAS_MOORDYN = moordyn_version() is not None  # installed and importable
 needs_moordyn = pytest.mark.skipif(not HAS_MOORDYN, reason="moordyn not installed (optional bench "
                                    "extra: pip install moordyn==2.7.2)")
 CONFIG = Path(__file__).resolve().parents[2] / "config" / "mooring_line.yaml"
