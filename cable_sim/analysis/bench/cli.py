@@ -12,12 +12,14 @@ import argparse
 import math
 import sys
 import time
+from pathlib import Path
 
 from .contact_cost import contact_cost, contact_plot, contact_table
 from .cost import cost_rows, slopes
 from .discretisation import by_scene, discretisation_rows
 from .figures import plots
 from .moordyn_peer import PeerResult, PeerSettings, moordyn_peer, peer_plot
+from .mujoco_best import best_plot, mujoco_best
 from .mujoco_compare import mujoco_compare
 from .plan import Plan, PlanError, make_plan
 from .report import make_summary, write_csv
@@ -33,10 +35,12 @@ from .settings import (
     WP_DURATION,
     log,
 )
-from .targets import make_targets
-from .workprecision import run_workprecision
+from .targets import MORISON_LABEL, make_targets
+from .workprecision import run_drag_variant, run_workprecision
 
-DESCRIPTION = "Benchmark (issue #5): work-precision, convergence in n, cost in n, MuJoCo side by side."
+DESCRIPTION = ("Benchmark (issues #5, #13): work-precision, convergence in n, cost in n, MuJoCo side by "
+               "side, seabed cost, MoorDyn peer; issue #13's targets.")
+LARGE_N_INTEGRATORS = ("rk4", "rosenbrock2", "ros34pw2")
 
 
 def parse_args(argv=None) -> argparse.Namespace:
@@ -75,6 +79,20 @@ def parse_args(argv=None) -> argparse.Namespace:
     ap.add_argument("--mujoco-n", nargs="+", type=int, default=None, help="default 20 80 160")
     ap.add_argument("--mujoco-step", type=float, default=0.002)
     ap.add_argument("--no-mujoco", action="store_true")
+    ap.add_argument("--mujoco-best-n", type=int, default=None,
+                    help="n of the comparison with each engine at its best scheme and largest step "
+                         "within 1 cm (default 80; --quick 6)")
+    ap.add_argument("--morison-n", nargs="*", type=int, default=None,
+                    help="n of the paper free fall with Morison drag (work-precision rows labelled "
+                         f"{MORISON_LABEL}; default 80, --quick 8; none: skipped)")
+    ap.add_argument("--large-n-from", type=int, default=10**9,
+                    help="from this n on only --large-n-integrators run (default: no restriction)")
+    ap.add_argument("--large-n-integrators", nargs="+", default=list(LARGE_N_INTEGRATORS),
+                    help=f"the schemes run from --large-n-from on (default {' '.join(LARGE_N_INTEGRATORS)})")
+    ap.add_argument("--realtime-csv", default="results/realtime/jitter_summary_n2000.csv",
+                    help="realtime_bench's summary of the node at n = 2000 (target read from it)")
+    ap.add_argument("--recorder-csv", default="results/recording/recorder_bench.csv",
+                    help="recorder_bench's CSV (its node_overhead row: the recording-overhead target)")
     ap.add_argument("--contact-n", type=int, default=None,
                     help="n of the seabed on/off cost study on mooring_line (default 80; --quick 6)")
     ap.add_argument("--no-contact", action="store_true", help="skip the seabed on/off cost study")
@@ -122,6 +140,30 @@ def mujoco_step(plan: Plan, disc: list[dict]) -> list[dict]:
         disc += discretisation_rows("paper_free_fall (drag off)", off, free=True)
         write_csv(plan.out / "discretisation.csv", disc)
     return mj_rows
+
+
+def morison_step(plan: Plan) -> list[dict]:
+    """Issue #13: the paper free fall with Morison drag (work-precision rows, own reference)."""
+    a = plan.args
+    ns = a.morison_n if a.morison_n is not None else ([8] if a.quick else [80])
+    if "paper_free_fall" not in plan.scenes:
+        return []
+    rows: list[dict] = []
+    for n in ns:
+        rows += run_drag_variant(plan, "paper_free_fall", n, "morison")
+    return rows
+
+
+def mujoco_best_step(plan: Plan) -> list[dict]:
+    """Issue #13: each engine at its best scheme and largest step within 1 cm (mujoco_best.csv)."""
+    a = plan.args
+    if a.no_mujoco:
+        return []
+    n = a.mujoco_best_n or (6 if a.quick else 80)
+    rows = mujoco_best(n, plan.duration("paper_free_fall"), plan.cache, a.dop853_max_n, a.ref_step,
+                       a.budget, plan.steps, plan.integrators_at(n), rtol=a.ref_rtol, kernel=plan.kernel)
+    write_csv(plan.out / "mujoco_best.csv", rows)
+    return rows
 
 
 def _study_duration(plan: Plan) -> float:
@@ -179,21 +221,27 @@ def main(argv=None) -> int:
         return 0
     wp, refs = run_workprecision(plan)
     write_csv(plan.out / "workprecision.csv", wp)
+    wp += morison_step(plan)
+    write_csv(plan.out / "workprecision.csv", wp)
     disc = by_scene(plan.scenes, refs)
     write_csv(plan.out / "discretisation.csv", disc)
     costs = cost_rows(wp, plan.scenes, plan.integs)
     fitted = slopes(costs, plan.scenes)
     write_csv(plan.out / "cost_vs_n.csv", costs)
     mj_rows = mujoco_step(plan, disc)
+    mj_best = mujoco_best_step(plan)
     contact = contact_step(plan)
     peer = moordyn_step(plan)
-    plots(plan.out, wp, disc, costs, plan.scenes, fitted)
-    targets = make_targets(wp, mj_rows, fitted)
+    plots(plan.out, wp, disc, costs, plan.scenes, fitted,
+          extra=tuple(sorted({r["scene"] for r in wp} - set(plan.scenes))))
+    best_plot(plan.out, mj_best)
+    targets = make_targets(wp, mj_best, fitted, contact=contact, peer=peer.summary,
+                           realtime_csv=Path(args.realtime_csv), recorder_csv=Path(args.recorder_csv))
     write_csv(plan.out / "targets.csv", targets)
     elapsed = time.perf_counter() - plan.t_start
     summary = make_summary(argv if argv is not None else sys.argv[1:], plan.kernel, plan.why, plan.integs,
                            args, wp, disc, costs, fitted, mj_rows, targets, elapsed,
-                           contact=contact, peer=peer.summary)
+                           contact=contact, peer=peer.summary, mj_best=mj_best)
     (plan.out / "summary.md").write_text(summary)
     print(summary)
     log(f"done in {elapsed:.0f} s; results in {plan.out}")

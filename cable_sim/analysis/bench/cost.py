@@ -40,10 +40,15 @@ def cost_rows(wp: list[dict], scenes, integs) -> list[dict]:
     return rows
 
 
+#: n range of the fitted slope (issue #13: n = 40..640).
+SLOPE_N = (40, 640)
+
+
 def slopes(rows: list[dict], scenes) -> dict[str, float]:
-    """Fitted slope of the best cost vs n (n >= 40) per scene."""
+    """Fitted slope of the best cost vs n (n in :data:`SLOPE_N`) per scene."""
     out = {}
+    lo, hi = SLOPE_N
     for scene in scenes:
-        rr = [r for r in rows if r["scene"] == scene and r["integrator"] == "best" and r["n"] >= 40]
+        rr = [r for r in rows if r["scene"] == scene and r["integrator"] == "best" and lo <= r["n"] <= hi]
         out[scene] = fit_slope([r["n"] for r in rr], [r["cost"] for r in rr])
     return out

@@ -104,8 +104,10 @@ def _cost(plt, out: Path, cost_rows: list[dict], scenes, slopes: dict[str, float
     plt.close(fig)
 
 
-def plots(out: Path, wp: list[dict], disc: list[dict], cost_rows: list[dict], scenes, slopes) -> None:
-    """Work-precision per scene (a panel per n, a line per integrator), error vs n, cost vs n."""
+def plots(out: Path, wp: list[dict], disc: list[dict], cost_rows: list[dict], scenes, slopes,
+          extra: tuple[str, ...] = ()) -> None:
+    """Work-precision per scene (a panel per n, a line per integrator), error vs n, cost vs n;
+    ``extra``: further row labels of ``wp`` with a work-precision plot only (e.g. a drag variant)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -113,7 +115,7 @@ def plots(out: Path, wp: list[dict], disc: list[dict], cost_rows: list[dict], sc
 
     integs_all = list(dict.fromkeys(r["integrator"] for r in wp))
     colours = {k: f"C{i}" for i, k in enumerate(integs_all)}
-    for scene in scenes:
+    for scene in [*scenes, *extra]:
         _workprecision(plt, out, wp, scene, colours)
     if disc:
         _discretisation(plt, out, disc)

@@ -69,12 +69,21 @@ class Plan:
         d = float(load_scene(scene).sim.get("duration", 0.0) or 0.0)
         return d if d > 0 else OPEN_ENDED_DURATION
 
+    def integrators_at(self, n: int) -> list[str]:
+        """The integrators run at n links: from ``--large-n-from`` on only those of
+        ``--large-n-integrators`` (the schemes that can win there)."""
+        a = self.args
+        if n >= a.large_n_from and a.large_n_integrators:
+            return [i for i in self.integs if i in a.large_n_integrators]
+        return self.integs
+
     def jobs(self) -> list[tuple[str, int]]:
         """(scene, n) pairs, smallest n first across scenes (so that a --refs-only process, which
-        works from the largest n down, has the most time to fill the cache)."""
-        explicit_n = self.args.n is not None
+        works from the largest n down, has the most time to fill the cache). An n of
+        FREE_FALL_ONLY_N runs on the other scenes only when ``--scenes`` names them."""
+        explicit = self.args.scenes is not None
         jobs = [(s, n) for s in self.scenes for n in self.n_list
-                if explicit_n or n not in FREE_FALL_ONLY_N or s == "paper_free_fall"]
+                if explicit or n not in FREE_FALL_ONLY_N or s == "paper_free_fall"]
         return sorted(jobs, key=lambda j: j[1])
 
     def reference(self, scene: str, n: int, drag: str | None = None) -> tuple[Run, str, float]:

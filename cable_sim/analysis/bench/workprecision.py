@@ -38,8 +38,10 @@ class _Ladder:
     """One integrator's ladder at one (scene, n): runs, or takes over, one setting at a time."""
 
     def __init__(self, plan: Plan, scene: str, n: int, integ: str, too_slow: dict[tuple[str, str], int],
-                 ref: tuple[Run, str, float]) -> None:
-        self.plan, self.scene, self.n, self.integ, self.too_slow = plan, scene, n, integ, too_slow
+                 ref: tuple[Run, str, float], drag: str | None = None) -> None:
+        self.plan, self.n, self.integ, self.too_slow = plan, n, integ, too_slow
+        self.base, self.drag = scene, drag
+        self.scene = f"{scene}+{drag}" if drag else scene  # the rows' label
         self.ref, self.desc, self.ref_err = ref
         self.adaptive = is_adaptive(integ)
         self.dur = plan.duration(scene)
@@ -81,8 +83,9 @@ class _Ladder:
         if skip:
             r = Run(self.scene, self.n, self.integ, s, self.dur, kernel=kernel, status=skip)
         else:
-            r = simulate(self.scene, self.n, self.integ, s, self.dur, budget=self.plan.args.budget,
-                         kernel=kernel)
+            r = simulate(self.base, self.n, self.integ, s, self.dur, budget=self.plan.args.budget,
+                         kernel=kernel, drag=self.drag)
+            r.scene = self.scene
             if r.status.startswith("skipped"):
                 self.too_slow.setdefault((self.scene, self.integ), self.n)
             elif r.ok:
@@ -123,6 +126,21 @@ def run_workprecision(plan: Plan) -> tuple[list[dict], dict[tuple[str, int], Run
             log(f"{scene} n={n}: {exc}; skipping this n")
             continue
         refs[(scene, n)] = ref[0]
-        for integ in plan.integs:
+        for integ in plan.integrators_at(n):
             wp += _Ladder(plan, scene, n, integ, too_slow, ref).run()
     return wp, refs
+
+
+def run_drag_variant(plan: Plan, scene: str, n: int, drag: str) -> list[dict]:
+    """Work-precision rows of ``scene`` at n links with ``drag_model`` = ``drag`` (every integrator's
+    ladder; rows labelled ``<scene>+<drag>``, reference with the same drag)."""
+    try:
+        ref = plan.reference(scene, n, drag=drag)
+    except RuntimeError as exc:
+        log(f"{scene} drag {drag} n={n}: {exc}; skipped")
+        return []
+    rows: list[dict] = []
+    too_slow: dict[tuple[str, str], int] = {}
+    for integ in plan.integrators_at(n):
+        rows += _Ladder(plan, scene, n, integ, too_slow, ref, drag=drag).run()
+    return rows

@@ -1,0 +1,154 @@
+"""MuJoCo vs cable_sim, each engine at its best scheme and largest step within the error bound.
+
+Paper free fall with drag off (the chain of :mod:`.mujoco_chain`), at n links: every MuJoCo
+integrator (RK4, implicitfast, implicit, Euler) and every fixed-step scheme of ours walks the step
+ladder from the largest step down; the first step whose max joint-position error against our
+drag-off reference is within :data:`~.settings.ERROR_BOUND` is the scheme's largest step within
+the bound (a smaller step of the same scheme only costs more). That step is timed again (best of
+``repeats``); per engine the scheme with the highest real-time factor there is its best. The
+issue #13 target is the ratio of the two engines' best real-time factors.
+
+``mujoco`` is optional: without it :func:`mujoco_best` logs why and returns no rows.
+
+Part of the analysis layer: may import every layer; here the bench modules.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from .mujoco_chain import build
+from .mujoco_compare import SCENE, _Case, _time_mujoco
+from .references import reference
+from .runs import error, is_adaptive, make_scene, simulate
+from .settings import ERROR_BOUND, log
+
+MUJOCO_INTEGRATORS = ("RK4", "implicitfast", "implicit", "Euler")
+
+
+def _row(engine: str, integ: str, n: int, step: float, duration: float, status: str, walls: list[float],
+         err: float, role: str, wall_inputs: float = 0.0) -> dict:
+    wall = min(walls) if walls else float("nan")
+    return dict(engine=engine, integrator=integ, n=n, step=step, duration=duration, role=role,
+                status=status, repeats=len(walls), wall=wall, rtf=duration / wall,
+                rtf_incl_inputs=duration / (wall + wall_inputs), error_m=err,
+                within_bound=bool(status == "ok" and err <= ERROR_BOUND))
+
+
+def _mujoco_ladder(mujoco, c: _Case, integ: str, steps: list[float], repeats: int) -> list[dict]:
+    """One MuJoCo integrator down the ladder; the chosen step timed ``repeats`` times."""
+    eng = f"mujoco {mujoco.__version__}"
+    rows = []
+    for h in sorted(steps, reverse=True):
+        c.step, c.repeats = h, 1
+        mj, data = build(c.model, h, integ)
+        walls, status, pos = _time_mujoco(mujoco, mj, data, c)
+        err = float(np.max(np.linalg.norm(pos - c.ref_pos, axis=-1))) if status == "ok" else float("nan")
+        if status == "ok" and not np.isfinite(err):
+            status = "failed: non-finite positions"
+        rows.append(_row(eng, integ, c.n, h, c.duration, status, walls, err, "ladder"))
+        log(f"mujoco-best {integ} n={c.n} h={h:g}: {status} err {err:.3g} m RTF {rows[-1]['rtf']:.4g}")
+        if status.startswith("skipped"):
+            break
+        if rows[-1]["within_bound"]:
+            c.repeats = repeats
+            walls, status, _ = _time_mujoco(mujoco, mj, data, c)
+            rows.append(_row(eng, integ, c.n, h, c.duration, status, walls, err, "chosen"))
+            break
+    return rows
+
+
+def _ours_ladder(integ: str, n: int, duration: float, ref, steps: list[float], budget: float,
+                 repeats: int, kernel: str) -> list[dict]:
+    """One of our fixed-step schemes down the ladder; the chosen step timed ``repeats`` times."""
+    eng = f"cable_sim ({kernel})"
+    rows = []
+    for h in sorted(steps, reverse=True):
+        r = simulate(SCENE, n, integ, h, duration, budget=budget, drag="none", kernel=kernel)
+        err = error(r, ref) if r.ok else float("nan")
+        rows.append(_row(eng, integ, n, h, duration, r.status, [r.wall] if r.ok else [], err, "ladder",
+                         r.wall_inputs))
+        log(f"mujoco-best ours {integ} n={n} h={h:g}: {r.status} err {err:.3g} m RTF {rows[-1]['rtf']:.4g}")
+        if r.status.startswith("skipped"):
+            break
+        if rows[-1]["within_bound"]:
+            runs = [r]
+            for _ in range(repeats - 1):
+                if r.wall * (len(runs) + 1) > budget:
+                    break
+                runs.append(simulate(SCENE, n, integ, h, duration, budget=budget, drag="none", kernel=kernel))
+            ok = [x for x in runs if x.ok]
+            rows.append(_row(eng, integ, n, h, duration, "ok", [x.wall for x in ok], err, "chosen",
+                             min(x.wall_inputs for x in ok)))
+            break
+    return rows
+
+
+def _best(rows: list[dict], prefix: str) -> list[dict]:
+    chosen = [r for r in rows if r["role"] == "chosen" and r["engine"].startswith(prefix)
+              and r["status"] == "ok" and np.isfinite(r["rtf"])]
+    if not chosen:
+        return []
+    return [{**max(chosen, key=lambda r: r["rtf"]), "role": "best"}]
+
+
+def mujoco_best(n: int, duration: float, cache: Path, dop853_max_n: int, ref_step: float, budget: float,
+                steps: list[float], ours: list[str], rtol: float = 1e-10, kernel: str = "fast",
+                repeats: int = 3) -> list[dict]:
+    """Rows of mujoco_best.csv: every ladder run (role ``ladder``), each scheme's largest step
+    within the bound timed again (``chosen``) and each engine's best (``best``)."""
+    try:
+        import mujoco
+    except ImportError as exc:
+        log(f"MuJoCo best-scheme comparison skipped: mujoco not importable ({exc})")
+        return []
+    ref, desc, _ = reference(SCENE, n, duration, cache, dop853_max_n, ref_step, drag="none", rtol=rtol,
+                             kernel=kernel)
+    sc = make_scene(SCENE, n, "none", kernel)
+    model = sc.model()
+    c = _Case(n, steps[0], duration, budget, 1, model, sc.initial_state(model), ref.pos, desc)
+    rows: list[dict] = []
+    for integ in MUJOCO_INTEGRATORS:
+        rows += _mujoco_ladder(mujoco, c, integ, steps, repeats)
+    for integ in ours:
+        if not is_adaptive(integ):
+            rows += _ours_ladder(integ, n, duration, ref, steps, budget, repeats, kernel)
+    for r in rows:
+        r["reference"] = desc
+    return rows + _best(rows, "cable_sim") + _best(rows, "mujoco")
+
+
+def best_plot(out: Path, rows: list[dict]) -> None:
+    """mujoco_best.png: real-time factor against error over each scheme's ladder, both engines
+    (solid: cable_sim, dashed: MuJoCo), the error bound and each engine's best marked."""
+    ok = [r for r in rows if r["status"] == "ok" and np.isfinite(r["error_m"]) and r["role"] == "ladder"]
+    if not ok:
+        return
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(6.5, 4.5))
+    for i, (eng, integ) in enumerate(dict.fromkeys((r["engine"], r["integrator"]) for r in ok)):
+        rr = sorted([r for r in ok if r["engine"] == eng and r["integrator"] == integ],
+                    key=lambda r: r["step"])
+        ls = "--" if eng.startswith("mujoco") else "-"
+        ax.loglog([max(r["error_m"], 1e-12) for r in rr], [r["rtf"] for r in rr], ls, marker="o", ms=3,
+                  color=f"C{i}", label=f"{eng.split()[0]} {integ}")
+    for r in rows:
+        if r["role"] == "best":
+            ax.plot(max(r["error_m"], 1e-12), r["rtf"], "k*", ms=12)
+    ax.axvline(ERROR_BOUND, color="k", lw=0.8, ls=":")
+    n = ok[0]["n"]
+    ax.set_xlabel("max joint-position error [m] (vs our drag-off reference)")
+    ax.set_ylabel("real-time factor")
+    ax.set_title(f"paper free fall, drag off, n={n}: step ladders (star: each engine's best within 1 cm)",
+                 fontsize=8)
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=7, ncol=2)
+    fig.tight_layout()
+    fig.savefig(out / "mujoco_best.png", dpi=100)
+    plt.close(fig)
