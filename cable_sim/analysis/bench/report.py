@@ -74,8 +74,8 @@ def _targets_section(targets: list[dict], args) -> list[str]:
     lim = getattr(args, "large_n_from", 10**9)
     if lim < 10**9:
         s += [f"From n = {lim} on only {', '.join(args.large_n_integrators)} were run (the schemes "
-              "that can win there; the others are slower at every n below), to keep the invocation "
-              "within its time.", ""]
+              "cheapest within 1 cm at the largest n below it, see the cost table), to keep the "
+              "invocation within its time.", ""]
     return s
 
 
