@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import time
 from collections import deque
+from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 from cable_sim.core.params import ParameterError
@@ -35,6 +36,15 @@ def control_steps(control_period: float, h: float, lockstep: bool) -> int:
     return steps
 
 
+def _timed_tick(node: Node, advance: Callable[[], None]) -> None:
+    """Run one timer tick's ``advance`` and count its wall time in the node's tick profile."""
+    w = time.perf_counter()
+    try:
+        advance()
+    finally:
+        node.run.profile.tick(time.perf_counter() - w)
+
+
 class RealtimePacing:
     """Advance the simulation to the wall clock on every tick (see the module docstring)."""
 
@@ -49,11 +59,7 @@ class RealtimePacing:
         self.sim_wall_base = (now, self.node.sim.t)
 
     def tick(self) -> None:
-        w = time.perf_counter()
-        try:
-            self._advance()
-        finally:
-            self.node.run.profile.tick(time.perf_counter() - w)
+        _timed_tick(self.node, self._advance)
 
     def _advance(self) -> None:
         node, sim, run = self.node, self.node.sim, self.node.run
@@ -88,11 +94,7 @@ class FastPacing:
         """Nothing to re-pace: fast mode does not follow the wall clock."""
 
     def tick(self) -> None:
-        w = time.perf_counter()
-        try:
-            self._advance()
-        finally:
-            self.node.run.profile.tick(time.perf_counter() - w)
+        _timed_tick(self.node, self._advance)
 
     def _advance(self) -> None:
         node = self.node
