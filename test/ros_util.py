@@ -183,6 +183,16 @@ def node_process(scene: str | os.PathLike[str], *overrides: str, domain: int | N
         kill_and_reap(proc)
 
 
+def run_to_end(scene: str | os.PathLike[str], *overrides: str, domain: int | None = None,
+               cwd: Path | None = None, timeout: float = 120.0) -> str:
+    """Run the node to the end of its scene (pass ``duration:=...`` and ``exit_at_end:=true``):
+    its output; fails unless it exits 0 within ``timeout`` s; killed and reaped whatever happens."""
+    with node_process(scene, *overrides, domain=domain, cwd=cwd) as proc:
+        out, _ = proc.communicate(timeout=timeout)
+        assert proc.returncode == 0, out[-3000:]
+    return out
+
+
 def spin_until(executor, cond, timeout: float) -> bool:
     """Spin ``executor`` until ``cond()`` is true or ``timeout`` seconds pass."""
     end = time.monotonic() + timeout

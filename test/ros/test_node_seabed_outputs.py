@@ -32,7 +32,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import rclpy
-from ros_util import init_context, isolate_ros, kill_and_reap, spin_until, start_node
+from ros_util import init_context, isolate_ros, kill_and_reap, run_to_end, spin_until, start_node
 from rosbags.highlevel import AnyReader
 from scipy.optimize import brentq
 
@@ -58,14 +58,8 @@ def catenary_touchdown(D: float, V: float, L: float) -> float:
 
 
 def _run(scene: str, path: Path, *params: str) -> str:
-    proc = start_node(scene, "clock_mode:=fast", f"duration:={DURATION}", "exit_at_end:=true",
-                      f"record_path:={path}", *params, domain=DOMAIN, cwd=ROOT)
-    try:
-        out, _ = proc.communicate(timeout=180)
-        assert proc.returncode == 0, out[-3000:]
-    finally:
-        kill_and_reap(proc)
-    return out
+    return run_to_end(scene, "clock_mode:=fast", f"duration:={DURATION}", "exit_at_end:=true",
+                      f"record_path:={path}", *params, domain=DOMAIN, cwd=ROOT, timeout=180)
 
 
 def _read(path: Path) -> tuple[dict[str, list], dict[str, str]]:

@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 import yourdfpy
 from mcap_ros2._dynamic import serialize_dynamic
-from ros_util import isolate_ros, kill_and_reap, start_node
+from ros_util import isolate_ros, run_to_end
 from rosbags.highlevel import AnyReader
 
 from cable_sim.ros.recorder.definitions import message_definition
@@ -67,13 +67,8 @@ def test_frame_prefix_follows_frame_id():
 @pytest.fixture(scope="module")
 def recording(tmp_path_factory):
     path = tmp_path_factory.mktemp("tf") / "run.mcap"
-    proc = start_node("mooring_line", "clock_mode:=fast", "duration:=2.0", "exit_at_end:=true",
-                      f"record_path:={path}", "joint_state_rate:=50.0", "marker_rate:=10.0", domain=DOMAIN)
-    try:
-        out, _ = proc.communicate(timeout=120)
-        assert proc.returncode == 0, out[-3000:]
-    finally:
-        kill_and_reap(proc)
+    run_to_end("mooring_line", "clock_mode:=fast", "duration:=2.0", "exit_at_end:=true",
+               f"record_path:={path}", "joint_state_rate:=50.0", "marker_rate:=10.0", domain=DOMAIN)
     return path
 
 
