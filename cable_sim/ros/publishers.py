@@ -144,19 +144,27 @@ class NodeOutputs:
     def publish(self, name: str, msg, stamp: int) -> None:
         """Publish the rclpy message ``msg`` on output ``name`` (if that output exists), count and
         record it (serialised once, when recording: the same bytes are published and recorded)."""
-        if self.node.recorder is None:
-            pub = self.pub.get(name)
-            if pub is None or not self.node.context.ok():
-                return
+        pub = self.pub.get(name)
+        if pub is None or not self.node.context.ok():
+            return
+        rec = self.node.recorder
+        data = None
+        if rec is not None:
             w = perf_counter()
-            pub.publish(msg)
-            self.node.run.profile.add("publish", perf_counter() - w)
-            self.published[name] += 1
+            try:
+                data = serialize(msg)
+            except Exception:  # noqa: BLE001 - never raise into the simulation: rclpy's path below
+                data = None
+            self.node.run.profile.add("messages", perf_counter() - w)
+        if data is not None:
+            self.publish_bytes(name, data, type_name_of(msg), stamp)
             return
         w = perf_counter()
-        data = serialize(msg)
-        self.node.run.profile.add("messages", perf_counter() - w)
-        self.publish_bytes(name, data, type_name_of(msg), stamp)
+        pub.publish(msg)
+        self.node.run.profile.add("publish", perf_counter() - w)
+        self.published[name] += 1
+        if rec is not None:  # counts and logs the serialisation error, drops the message
+            rec.write(self.topic[name], msg, stamp)
 
     def publish_bytes(self, name: str, data: bytes, type_name: str, stamp: int,
                       joint_positions: np.ndarray | None = None) -> None:
