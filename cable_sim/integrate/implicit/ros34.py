@@ -301,6 +301,43 @@ def err_norm(arr: np.ndarray, y: np.ndarray, yn: np.ndarray, err: np.ndarray, at
     return out
 
 
+#: 1 / (embedded order + 1): the exponent of the step-size controller.
+_K_EXP = 1.0 / 3.0
+
+
+@nb.njit(cache=True)
+def _rejected_step(ctl: np.ndarray, en: float, hs: float) -> float:
+    """The retry step after a step of size ``hs`` was rejected with error norm ``en`` (inf: the
+    step failed); resets the growth count ``ctl[11]``. ``ctl`` as in :func:`_ros_adaptive_run`."""
+    safety, fmin = ctl[2], ctl[3]
+    fac = fmin if not np.isfinite(en) else max(fmin, min(1.0, safety * en ** (-_K_EXP)))
+    ctl[11] = 0.0
+    return hs * fac
+
+
+@nb.njit(cache=True)
+def _accepted_step(ctl: np.ndarray, en: float, hs: float, h: float, last: bool) -> float:
+    """The next step after an accepted step of size ``hs`` (proposed ``h``; ``last``: it was clipped
+    to the interval's end) with error norm ``en``: PI controller (Gustafsson),
+    fac = safety en^(-0.7 k) en_prev^(0.4 k), k = 1/3; updates ``ctl[8]`` (the previous error)
+    and ``ctl[11]`` (steps grown in a row)."""
+    safety, fmin, fmax, hmax = ctl[2], ctl[3], ctl[4], ctl[5]
+    en = max(en, 1e-10)
+    ep = ctl[8] if ctl[8] > 0.0 else en
+    fac = safety * en ** (-0.7 * _K_EXP) * ep ** (0.4 * _K_EXP)
+    # growth cap: at most 1.4 once the step grew in each of the last two steps, so that
+    # steadily growing steps are not read as a runaway mode by the check
+    cap = fmax if ctl[11] < 2.0 else min(fmax, 1.4)
+    fac = max(fmin, min(cap, fac))
+    ctl[11] = ctl[11] + 1.0 if fac > 1.4 else 0.0
+    if hs >= h * (1.0 - 1e-12):  # a shortened step's error says little about h
+        ctl[8] = en
+    hnew = min(hs * fac, hmax)
+    if last and hs < h:
+        hnew = max(hnew, h) if fac >= 1.0 else min(h, hnew)  # a clipped last step: keep h
+    return hnew
+
+
 @nb.njit(cache=True)
 def _ros_adaptive_run(arr: np.ndarray, par: np.ndarray, geometric: bool, predict: bool, t0: float, t1: float,
                       tin0: float, tdt: float, uin: np.ndarray, ein: np.ndarray, y: np.ndarray,
@@ -319,10 +356,9 @@ def _ros_adaptive_run(arr: np.ndarray, par: np.ndarray, geometric: bool, predict
     W, S, X, kgeo, sq, sv, wk, yn, err = _workspace(arr.shape[1], ns)
     us = np.empty(ns)
     es = np.empty(ns)
-    atol, rtol, safety, fmin, fmax, hmax, hmin = ctl[0], ctl[1], ctl[2], ctl[3], ctl[4], ctl[5], ctl[6]
+    atol, rtol, hmax, hmin = ctl[0], ctl[1], ctl[5], ctl[6]
     h = min(ctl[7], hmax)
     t = t0
-    k_exp = 1.0 / 3.0  # 1 / (embedded order + 1)
     while t < t1:
         hs, last = _clip(t, t1, h)
         for i in range(ns):
@@ -335,9 +371,7 @@ def _ros_adaptive_run(arr: np.ndarray, par: np.ndarray, geometric: bool, predict
         en = err_norm(arr, y, yn, err, atol, rtol) if ok else np.inf
         if not np.isfinite(en) or en > 1.0:
             info[4] += 1
-            fac = fmin if not np.isfinite(en) else max(fmin, min(1.0, safety * en ** (-k_exp)))
-            h = hs * fac
-            ctl[11] = 0.0
+            h = _rejected_step(ctl, en, hs)
             if h < hmin:
                 info[3] = t
                 info[2] = h
@@ -353,21 +387,7 @@ def _ros_adaptive_run(arr: np.ndarray, par: np.ndarray, geometric: bool, predict
         y[:] = yn
         info[1] += 1
         t = t1 if last else t + hs
-        # PI controller (Gustafsson): fac = safety en^(-0.7/k) en_prev^(0.4/k)
-        en = max(en, 1e-10)
-        ep = ctl[8] if ctl[8] > 0.0 else en
-        fac = safety * en ** (-0.7 * k_exp) * ep ** (0.4 * k_exp)
-        # growth cap: at most 1.4 once the step grew in each of the last two steps, so that
-        # steadily growing steps are not read as a runaway mode by the check
-        cap = fmax if ctl[11] < 2.0 else min(fmax, 1.4)
-        fac = max(fmin, min(cap, fac))
-        ctl[11] = ctl[11] + 1.0 if fac > 1.4 else 0.0
-        if hs >= h * (1.0 - 1e-12):  # a shortened step's error says little about h
-            ctl[8] = en
-        hnew = min(hs * fac, hmax)
-        if last and hs < h:
-            hnew = max(hnew, h) if fac >= 1.0 else min(h, hnew)  # a clipped last step: keep h
-        h = hnew
+        h = _accepted_step(ctl, en, hs, h, last)
     ctl[7] = h
     info[3] = t
     return STATUS_OK
@@ -587,7 +607,7 @@ class Ros34PW2Adaptive(Ros34PW2):
     def _advance_python(self, t, y, t_end, dt, u, eta) -> np.ndarray:
         """The same controller on the dense step (reference path)."""
         ctl = self._ctl
-        atol, rtol, safety, fmin, fmax, hmax, hmin = ctl[:7]
+        atol, rtol, hmax, hmin = ctl[0], ctl[1], ctl[5], ctl[6]
         span = t_end - t
         self._budget_for(y, span, float(np.abs(u).max()), float(np.abs(eta).max()))
         rate = self._energy_jump_allowed(span) / span
@@ -607,9 +627,7 @@ class Ros34PW2Adaptive(Ros34PW2):
                     en = np.inf
                 if not np.isfinite(en) or en > 1.0:
                     self.nrejected += 1
-                    fac = fmin if not np.isfinite(en) else max(fmin, min(1.0, safety * en ** (-1 / 3)))
-                    h = hs * fac
-                    ctl[11] = 0.0
+                    h = _rejected_step(ctl, float(en), float(hs))
                     if h < hmin:
                         self._fail(STATUS_STEP_UNDERFLOW, t, h, y)
                     continue
@@ -625,18 +643,7 @@ class Ros34PW2Adaptive(Ros34PW2):
                 y = yn
                 self.nsteps += 1
                 t = t_end if last else t + hs
-                en = max(en, 1e-10)
-                ep = ctl[8] if ctl[8] > 0.0 else en
-                fac = safety * en ** (-0.7 / 3) * ep ** (0.4 / 3)
-                cap = fmax if ctl[11] < 2.0 else min(fmax, 1.4)
-                fac = max(fmin, min(cap, fac))
-                ctl[11] = ctl[11] + 1.0 if fac > 1.4 else 0.0
-                if hs >= h * (1.0 - 1e-12):  # a shortened step's error says little about h
-                    ctl[8] = en
-                hnew = min(hs * fac, hmax)
-                if last and hs < h:
-                    hnew = max(hnew, h) if fac >= 1.0 else min(h, hnew)
-                h = hnew
+                h = _accepted_step(ctl, float(en), float(hs), float(h), bool(last))
         finally:
             self.system.input_at = saved
         ctl[7] = h
