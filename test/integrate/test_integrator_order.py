@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from order_scenes import ENDS, order_scene
 
 from cable_sim.core import dynamics
 from cable_sim.core.dynamics import Inputs
@@ -44,24 +45,14 @@ STEPS = {4: (0.1, 0.05, 0.025, 0.0125), 3: (0.04, 0.02, 0.01, 0.005), 2: (0.04, 
 FIXED_STEP = sorted(name for name in set(INTEGRATORS) - {"dop853"} | set(implicit.INTEGRATORS)
                     if not getattr({**INTEGRATORS, **implicit.INTEGRATORS}[name], "adaptive", False))
 
-SMOOTH = dict(
-    n_links=10, drag_model="morison", initial_state="angle", initial_angle_deg=60.0,
-    heave_force_source="sine", heave_force_amplitude=20000.0, heave_force_period=3.0,
-    kernel="fast",
-)
-ENDS = {
-    "free": {},
-    "anchored": {"end_condition": "anchored", "initial_state": "static"},
-    "paper_anchor": {"end_condition": "paper_anchor", "initial_state": "static"},
-}
 
 
 @pytest.fixture(scope="module")
 def references() -> dict:
     """DOP853 (rtol = atol = 1e-13) end states of the smooth scene, per end condition."""
     out = {}
-    for end, ov in ENDS.items():
-        scene = load_scene("paper_free_fall", {**SMOOTH, **ov, "anchor_x": 150.0, "anchor_z": -150.0})
+    for end in ENDS:
+        scene = order_scene(end)
         model = scene.model()
         y0 = scene.initial_state(model)
         ref = ScipyIntegrator(scene.system(model=model), "DOP853", rtol=1e-13, atol=1e-13)

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from order_scenes import ENDS, SMOOTH, order_scene
 
 from cable_sim.core import dynamics
 from cable_sim.integrate import IntegrationError, ScipyIntegrator, make_integrator
@@ -134,20 +135,10 @@ def test_transformed_coefficients_reproduce_k_form() -> None:
 # --------------------------------------------------------------------------------------------
 
 HORIZON = 2.0
-SMOOTH = dict(
-    n_links=10, drag_model="morison", initial_state="angle", initial_angle_deg=60.0,
-    heave_force_source="sine", heave_force_amplitude=20000.0, heave_force_period=3.0,
-    kernel="fast",
-)
-ENDS = {
-    "free": {},
-    "anchored": {"end_condition": "anchored", "initial_state": "static"},
-    "paper_anchor": {"end_condition": "paper_anchor", "initial_state": "static"},
-}
 
 
 def _scene(end: str):
-    scene = load_scene("paper_free_fall", {**SMOOTH, **ENDS[end], "anchor_x": 150.0, "anchor_z": -150.0})
+    scene = order_scene(end)
     model = scene.model()
     return scene, model, scene.initial_state(model)
 
