@@ -22,6 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.linalg import cho_factor, cho_solve
 
+from cable_sim.core.kinematics import joint_positions, joint_velocities
 from cable_sim.core.model import CableModel
 from cable_sim.core.seabed import link_contact
 
@@ -49,26 +50,6 @@ def split_state(model: CableModel, y: np.ndarray) -> tuple[np.ndarray, np.ndarra
     """Split a state vector ``y = [q, qd]`` into views ``(q, qd)``."""
     k = model.ndof
     return y[:k], y[k:]
-
-
-def joint_positions(model: CableModel, q: np.ndarray) -> np.ndarray:
-    """Positions p_0..p_n of the joints, shape (n+1, 2), columns (x, z) [m]; p_0 is the fairlead."""
-    th = q[1:]
-    p = np.zeros((model.n + 1, 2))
-    p[1:, 0] = np.cumsum(model.length * np.sin(th))
-    p[1:, 1] = -np.cumsum(model.length * np.cos(th))
-    p[:, 1] += q[0]
-    return p
-
-
-def joint_velocities(model: CableModel, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
-    """Velocities of p_0..p_n, shape (n+1, 2) [m/s]."""
-    th, w = q[1:], qd[1:]
-    v = np.zeros((model.n + 1, 2))
-    v[1:, 0] = np.cumsum(model.length * np.cos(th) * w)
-    v[1:, 1] = np.cumsum(model.length * np.sin(th) * w)
-    v[:, 1] += qd[0]
-    return v
 
 
 def joint_accelerations(

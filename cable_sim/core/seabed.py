@@ -30,6 +30,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from cable_sim.core.kinematics import joint_positions
 from cable_sim.core.model import CableModel
 
 _PIECE = None
@@ -151,19 +152,6 @@ class SeabedOutputs:
     reaction: float
 
 
-def _joints(model: CableModel, q: np.ndarray, qd: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    th, w, l = q[1:], qd[1:], model.length
-    p = np.zeros((model.n + 1, 2))
-    v = np.zeros((model.n + 1, 2))
-    p[1:, 0] = np.cumsum(l * np.sin(th))
-    p[1:, 1] = -np.cumsum(l * np.cos(th))
-    p[:, 1] += q[0]
-    v[1:, 0] = np.cumsum(l * np.cos(th) * w)
-    v[1:, 1] = np.cumsum(l * np.sin(th) * w)
-    v[:, 1] += qd[0]
-    return p, v
-
-
 def seabed_outputs(model: CableModel, q: np.ndarray, qd: np.ndarray | None = None) -> SeabedOutputs:
     """Touchdown point, laid length and total seabed reaction of a state (O(n)).
 
@@ -178,7 +166,7 @@ def seabed_outputs(model: CableModel, q: np.ndarray, qd: np.ndarray | None = Non
     if not model.seabed:
         return SeabedOutputs(0.0, float("nan"), 0.0, 0.0)
     qd = np.zeros_like(q) if qd is None else qd
-    p, _ = _joints(model, q, qd)
+    p = joint_positions(model, q)
     zb, l, n = model.seabed_z, model.length, model.n
     d = zb - p[:, 1]  # penetration at every joint
     da, db = d[:-1], d[1:]  # at both ends of each link
