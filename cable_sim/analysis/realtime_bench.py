@@ -12,8 +12,6 @@ from __future__ import annotations
 
 import argparse
 import csv
-import os
-import random
 import sys
 import time
 from pathlib import Path
@@ -33,47 +31,24 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--tag", default="", help="suffix of the output files (e.g. n2000)")
     ap.add_argument("--out", default="results/realtime")
     a = ap.parse_args(argv)
-    os.environ.setdefault("ROS_DOMAIN_ID", str(random.randint(101, 200)))
-    os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
-    os.environ.setdefault("AMENT_PREFIX_PATH", sys.prefix)
-
-    import rclpy
-    from rclpy.executors import SingleThreadedExecutor
-    from rclpy.parameter import Parameter
-
-    from cable_sim.ros.node import CableSimNode
+    from cable_sim.analysis.in_process_node import in_process_node
 
     out = Path(a.out)
     out.mkdir(parents=True, exist_ok=True)
-    rclpy.init()
     tag = f"_{a.tag}" if a.tag else ""
-    overrides = [
-        Parameter("scene", value=a.scene), Parameter("clock_mode", value="realtime"),
-        Parameter("record", value=a.record),
-        Parameter("record_path", value=str(out / f"bench{tag}.mcap")),
-    ]
-    if a.n_links is not None:
-        overrides.append(Parameter("n_links", value=a.n_links))
-    if a.integrator is not None:
-        overrides.append(Parameter("integrator", value=a.integrator))
-    if a.step is not None:
-        overrides.append(Parameter("step", value=a.step))
-    node = CableSimNode(parameter_overrides=overrides)
-    ex = SingleThreadedExecutor()
-    ex.add_node(node)
-    t_end = time.monotonic() + a.seconds
-    try:
+    overrides = {"scene": a.scene, "clock_mode": "realtime", "record": a.record,
+                 "record_path": str(out / f"bench{tag}.mcap")}
+    for key, value in (("n_links", a.n_links), ("integrator", a.integrator), ("step", a.step)):
+        if value is not None:
+            overrides[key] = value
+    with in_process_node(**overrides) as (node, ex):
+        t_end = time.monotonic() + a.seconds
         while time.monotonic() < t_end:
             ex.spin_once(timeout_sec=0.05)
         diag = node.diagnostics_values()
         ticks = np.array(node.tick_times)
         profile = node.run.profile
         split = profile.split_us()
-    finally:
-        node.close()
-        ex.shutdown()
-        node.destroy_node()
-        rclpy.try_shutdown()
     intervals = np.diff(ticks) * 1e3
     period = node.tick_period * 1e3
     dev = intervals - period

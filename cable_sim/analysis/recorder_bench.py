@@ -182,21 +182,11 @@ def writer_rate(scene, n_msgs: int, tmpdir: Path) -> dict:
 
 def node_fast_mode(scene: str, n_links: int, seconds: float, record: bool, tmpdir: Path) -> dict:
     """The node in fast clock mode for ``seconds`` of wall time: steps/s and the tick split."""
-    import rclpy
-    from rclpy.executors import SingleThreadedExecutor
-    from rclpy.parameter import Parameter
-
-    from cable_sim.ros.node import CableSimNode
+    from cable_sim.analysis.in_process_node import in_process_node
 
     path = tmpdir / "node_fast.mcap"
-    rclpy.init()
-    node = CableSimNode(parameter_overrides=[
-        Parameter("scene", value=scene), Parameter("clock_mode", value="fast"),
-        Parameter("n_links", value=n_links), Parameter("record", value=record),
-        Parameter("record_path", value=str(path))])
-    ex = SingleThreadedExecutor()
-    ex.add_node(node)
-    try:
+    with in_process_node(scene=scene, clock_mode="fast", n_links=n_links, record=record,
+                         record_path=str(path)) as (node, ex):
         for _ in range(20):  # start-up (compilation, first outputs) outside the timing
             ex.spin_once(timeout_sec=0.01)
         k0, w0 = node.sim.k, time.perf_counter()
@@ -206,11 +196,6 @@ def node_fast_mode(scene: str, n_links: int, seconds: float, record: bool, tmpdi
         wall, steps = time.perf_counter() - w0, node.sim.k - k0
         split = node.run.profile.split_us()
         ticks = node.run.profile.ticks
-    finally:
-        node.close()
-        ex.shutdown()
-        node.destroy_node()
-        rclpy.try_shutdown()
     if path.exists():
         path.unlink()
     return {"steps_per_s": steps / wall, "realtime_factor": steps * node.h / wall, "ticks": ticks,
