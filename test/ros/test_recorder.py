@@ -162,13 +162,13 @@ def test_queue_overflow_drops_and_counts_without_blocking(tmp_path):
     logs = []
     rec = RunRecorder(tmp_path / "q.mcap", max_queue=20, logger=logs.append)
     release = threading.Event()
-    real = rec._writer.add_message
+    real = rec._register
 
-    def slow(*a, **k):  # the disk stalls until released
+    def slow(*a, **k):  # the writer thread stalls on the first message until released
         release.wait(10)
         return real(*a, **k)
 
-    rec._writer.add_message = slow
+    rec._register = slow
     n = 500
     for i in range(n):
         rec.write("/x", Float64(data=float(i)), i)

@@ -1,6 +1,11 @@
 """RunRecorder: non-blocking, crash-safe recording with a background writer thread.
 
-May import mcap and its sibling modules (definitions, cdr, files, index, metadata).
+The writer thread builds the message chunks itself (:mod:`.chunks`: one ``struct.pack`` and two
+appends per message, compression outside the GIL) and leaves the header, schema, channel and
+metadata records and the summary section to the stock :class:`mcap.writer.Writer` (unchunked;
+:mod:`.index` hands it every chunk for its chunk indexes and statistics).
+
+May import mcap and its sibling modules (chunks, definitions, cdr, files, index, metadata).
 """
 
 from __future__ import annotations
@@ -16,9 +21,10 @@ import weakref
 from pathlib import Path
 from typing import Any
 
-from mcap.writer import CompressionType, Writer
+from mcap.writer import Writer
 
 from cable_sim.ros.recorder.cdr import serialize
+from cable_sim.ros.recorder.chunks import ChannelState, ChunkBuilder
 from cable_sim.ros.recorder.definitions import (
     DEFAULT_QOS_YAML,
     LIBRARY,
@@ -29,7 +35,7 @@ from cable_sim.ros.recorder.definitions import (
     type_name_of,
 )
 from cable_sim.ros.recorder.files import _Sink, open_new_file
-from cable_sim.ros.recorder.index import _pack_chunk_indexes
+from cable_sim.ros.recorder.index import _pack_chunk_indexes, add_chunk, can_add_chunks
 from cable_sim.ros.recorder.metadata import _str_dict
 
 
@@ -91,10 +97,8 @@ class RunRecorder:
         #: The file asked for; :attr:`path` is the one written (they differ after a name clash).
         self.requested_path = Path(path)
         self.path = self.requested_path
-        comp = {"zstd": CompressionType.ZSTD, "lz4": CompressionType.LZ4,
-                "none": CompressionType.NONE, "": CompressionType.NONE}
-        if compression not in comp:
-            raise ValueError(f"compression={compression!r}: allowed 'zstd', 'lz4', 'none'")
+        #: The open chunk (raises ValueError for an unknown compression, before any file exists).
+        self._chunk = ChunkBuilder(chunk_size, compression)
         if not (flush_period > 0):
             raise ValueError(f"flush_period={flush_period!r}: must be > 0 [s]")
         if max_queue < 1:
@@ -103,15 +107,20 @@ class RunRecorder:
         #: Writer-thread idle sleep [s]: it drains the queue in batches, so the simulation thread
         #: hands over the GIL rarely.
         self._poll = 0.02
+        #: Queued items the writer thread handles between two looks at the clock.
+        self._batch = 1000
         self.max_queue = int(max_queue)
         self._logger = logger
+        #: ``(topic, type name, data, log_time, publish_time)`` per message; a metadata record is
+        #: ``(None, name, dict, 0, 0)``.
         self._queue: collections.deque[tuple] = collections.deque()
         self._types: dict[type, str] = {}
         self._topic_types: dict[str, str] = {}
-        self._channels: dict[str, int] = {}
+        #: topic -> its channel, or False when the topic cannot be recorded (no definition).
+        self._channels: dict[str, ChannelState | bool] = {}
         self._offered_qos: dict[str, str] = {}
         self._schemas: dict[str, int] = {}
-        self._counts: dict[str, int] = collections.defaultdict(int)
+        self._dirty = False  # written since the last fsync (or messages in the open chunk)
         self._written = 0
         self._dropped = 0
         self._errors = 0
@@ -122,7 +131,7 @@ class RunRecorder:
         self._close_lock = threading.RLock()
         self._last_drop_log = 0.0
         self._open_file()
-        self._start_file(metadata, chunk_size, comp[compression])
+        self._start_file(metadata)
         self._thread = threading.Thread(target=self._run, name=f"recorder:{self.path.name}",
                                         daemon=True)
         self._thread.start()
@@ -182,7 +191,7 @@ class RunRecorder:
             return
         lt = int(log_time_ns)
         pt = lt if publish_time_ns is None else int(publish_time_ns)
-        self._queue.append(("m", topic, type_name, data, lt, pt))
+        self._queue.append((topic, type_name, data, lt, pt))
 
     def offer_qos(self, topic: str, qos_yaml: str) -> None:
         """Store ``qos_yaml`` (rosbag2's ``offered_qos_profiles`` form) for ``topic`` instead of the
@@ -193,7 +202,7 @@ class RunRecorder:
         """Add a metadata record (written in order with the messages)."""
         if self._closing or self._failed:
             return
-        self._queue.append(("d", name, _str_dict(data)))
+        self._queue.append((None, name, _str_dict(data), 0, 0))
 
     @property
     def stats(self) -> dict[str, Any]:
@@ -217,7 +226,7 @@ class RunRecorder:
     @property
     def message_counts(self) -> dict[str, int]:
         """Messages written per topic."""
-        return dict(self._counts)
+        return {ch.topic: ch.count for ch in list(self._channels.values()) if ch}
 
     def close(self, timeout: float = 30.0) -> None:
         """Drain the queue, write the summary and close the file. Idempotent and thread-safe.
@@ -237,6 +246,8 @@ class RunRecorder:
                 self._error(f"writer thread did not finish within {timeout} s; file may be incomplete")
             try:
                 if not self._failed:
+                    self._close_chunk()
+                if not self._failed:
                     self._writer.finish()
                     self._sink.sync()
             except Exception as exc:  # noqa: BLE001
@@ -254,31 +265,63 @@ class RunRecorder:
     # ---------------------------------------------------------------- writer thread
     def _run(self) -> None:
         last_flush = time.monotonic()
-        dirty = False
         q = self._queue
         while True:
-            if not q:
-                if self._closing:
-                    break
-                now = time.monotonic()
-                if dirty and now - last_flush >= self.flush_period:
-                    self._flush()
-                    dirty = False
-                    last_flush = now
+            if q:
+                self._drain(self._batch)
+            elif self._closing:
+                break
+            else:
                 time.sleep(self._poll)
-                continue
-            wrote = self._write_item(q.popleft())
-            if wrote is None:
-                continue
-            dirty |= wrote
             now = time.monotonic()
             if now - last_flush >= self.flush_period:
-                self._flush()
-                dirty = False
+                if self._dirty:
+                    self._flush()
                 last_flush = now
         # final drain is done; flush what is left so a crash during finish() loses nothing
-        if dirty:
+        if self._dirty:
             self._flush()
+
+    def _drain(self, batch: int) -> None:
+        """Add up to ``batch`` queued items to the open chunk (writer thread): the hot loop."""
+        q = self._queue
+        if self._failed:
+            self._drop_queued()
+            return
+        pop = q.popleft
+        channels = self._channels
+        add = self._chunk.add
+        n = 0
+        try:
+            while q and n < batch:
+                item = pop()
+                topic, _tname, data, lt, pt = item
+                ch = channels.get(topic)
+                if not ch:
+                    ch = self._slow_item(item)
+                    if not ch:
+                        if self._failed:
+                            self._drop_queued()
+                            return
+                        continue
+                try:
+                    full = add(ch, data, lt, pt)
+                except Exception as exc:  # noqa: BLE001 - a bad message must not stop the thread
+                    self._dropped += 1
+                    self._error(f"cannot write message on {topic}: {exc!r}")
+                    continue
+                n += 1
+                if full:
+                    self._written += n
+                    n = 0
+                    self._close_chunk()
+                    if self._failed:
+                        self._drop_queued()
+                        return
+        finally:
+            self._written += n
+            if n:
+                self._dirty = True
 
     def _open_file(self) -> None:
         """Create the file (a new one, never an existing one) and its parent directories."""
@@ -299,11 +342,16 @@ class RunRecorder:
             self._log(f"{self.requested_path} already exists and is never overwritten: "
                       f"recording to {self.path} instead")
 
-    def _start_file(self, metadata: dict[str, dict[str, str]] | None, chunk_size: int,
-                    compression: CompressionType) -> None:
+    def _start_file(self, metadata: dict[str, dict[str, str]] | None) -> None:
         """Write the header and the metadata records, and sync them to disk."""
         try:
-            self._writer = Writer(self._sink, chunk_size=chunk_size, compression=compression)
+            # unchunked: the message chunks are ours (see _close_chunk), schemas and channels are
+            # written outside chunks, ahead of the first chunk that uses them
+            self._writer = Writer(self._sink, use_chunking=False)
+            if not can_add_chunks(self._writer):
+                self._sink_close_quietly()
+                raise RecorderError("the installed mcap package's Writer keeps no chunk index "
+                                    "list / statistics the recorder can add its chunks to")
             _pack_chunk_indexes(self._writer)
             self._writer.start(profile=PROFILE, library=LIBRARY)
             for name, data in (metadata or {}).items():
@@ -313,60 +361,98 @@ class RunRecorder:
             self._sink_close_quietly()
             raise RecorderError(f"cannot record to {str(self.path)!r}: {exc.strerror or exc}") from exc
 
-    def _write_item(self, item: tuple) -> bool | None:
-        """Write one queued item (writer thread): True for a message, False for a metadata record,
-        None when nothing was written (dropped, or an error counted and reported)."""
-        if self._failed:
-            if item[0] == "m":
-                self._dropped += 1
-            return None
+    def _slow_item(self, item: tuple) -> ChannelState | None:
+        """A queued item the hot loop cannot handle (writer thread): a metadata record, the first
+        message of a topic (registers its channel) or one of a topic that cannot be recorded.
+        Returns the channel to add the message to, None when there is nothing more to do."""
+        topic, tname = item[0], item[1]
         try:
-            if item[0] != "m":
-                self._writer.add_metadata(item[1], item[2])
-                return False
-            _, topic, tname, data, lt, pt = item
-            cid = self._channels.get(topic)
-            if cid is None:
-                cid = self._register(topic, tname)
-            if cid is None:
-                self._dropped += 1
+            if topic is None:
+                self._writer.add_metadata(tname, item[2])
+                self._dirty = True
                 return None
-            self._writer.add_message(cid, lt, data, pt, sequence=self._counts[topic])
-            self._counts[topic] += 1
-            self._written += 1
-            return True
+            ch = self._channels.get(topic)
+            if ch is None:
+                ch = self._register(topic, tname)
         except OSError as exc:
             self._io_error(exc)
-            if item[0] == "m":
+            ch = None
+        except Exception as exc:  # noqa: BLE001 - never let the writer thread die silently
+            self._error(f"cannot register {topic}: {exc!r}")
+            ch = None
+        if not ch:
+            if topic is not None:
                 self._dropped += 1
             return None
-        except Exception as exc:  # noqa: BLE001 - never let the writer thread die silently
-            self._error(f"cannot write message: {exc!r}")
-            return None
+        return ch  # type: ignore[return-value]
 
-    def _register(self, topic: str, tname: str) -> int | None:
+    def _register(self, topic: str, tname: str) -> ChannelState | bool:
+        """Write the schema (if new) and channel records of ``topic``; False if it has no
+        message definition (its messages are then dropped and counted)."""
         sid = self._schemas.get(tname)
         if sid is None:
             try:
                 definition = message_definition(tname)
             except (OSError, ValueError) as exc:
                 self._error(f"no message definition for {tname} (topic {topic}): {exc}")
-                self._channels[topic] = None  # type: ignore[assignment]
-                return None
+                self._channels[topic] = False
+                return False
             sid = self._schemas[tname] = self._writer.register_schema(
                 name=tname, encoding=SCHEMA_ENCODING, data=definition.encode())
         cid = self._writer.register_channel(
             topic=topic, message_encoding=MESSAGE_ENCODING, schema_id=sid,
             metadata={"offered_qos_profiles": self._offered_qos.get(topic, DEFAULT_QOS_YAML)})
-        self._channels[topic] = cid
+        self._writer.flush()  # the records reach the file before any chunk with their messages
+        ch = self._channels[topic] = ChannelState(cid, topic)
         self._topic_types[topic] = tname
-        return cid
+        self._dirty = True
+        return ch
 
-    def _flush(self) -> None:
+    def _close_chunk(self) -> None:
+        """Compress and write the open chunk and its message indexes; account it in the summary.
+        On a write error its messages count as dropped and recording stops."""
         if self._failed:
             return
         try:
-            self._writer.flush()
+            closed = self._chunk.close()
+        except Exception as exc:  # noqa: BLE001 - never let the writer thread die silently
+            lost = self._chunk.messages
+            self._chunk.discard()
+            self._written -= lost
+            self._dropped += lost
+            self._error(f"cannot compress a chunk ({lost} messages dropped): {exc!r}")
+            return
+        if closed is None:
+            return
+        sink = self._sink
+        try:
+            start = sink.tell()
+            for part in closed.chunk:
+                sink.write(part)
+            sink.write(closed.message_indexes)
+        except OSError as exc:
+            self._written -= closed.messages
+            self._dropped += closed.messages
+            self._io_error(exc)
+            return
+        add_chunk(self._writer, closed, start, start + closed.chunk_length)
+
+    def _drop_queued(self) -> None:
+        """Empty the queue after recording stopped, counting the messages in it as dropped."""
+        q = self._queue
+        while q:
+            if q.popleft()[0] is not None:
+                self._dropped += 1
+
+    def _flush(self) -> None:
+        """Close the open chunk, write it and fsync the file."""
+        self._dirty = False
+        if self._failed:
+            return
+        self._close_chunk()
+        if self._failed:
+            return
+        try:
             self._sink.sync()
         except OSError as exc:
             self._io_error(exc)
@@ -378,6 +464,11 @@ class RunRecorder:
             reason = "disk full (ENOSPC)"
         first = not self._failed
         self._failed = True
+        lost = self._chunk.messages  # the open chunk will never be written
+        if lost:
+            self._chunk.discard()
+            self._written -= lost
+            self._dropped += lost
         self._error(f"I/O error writing {self.path}: {reason}"
                     + ("; recording stopped, further messages are dropped" if first else ""))
 

@@ -1,0 +1,232 @@
+"""Lean MCAP chunk builder: the recorder's per-message work is one ``struct.pack`` and two appends.
+
+The writer thread of :class:`~cable_sim.ros.recorder.writer.RunRecorder` appends every message
+as an MCAP *Message* record (opcode 0x05) to one :class:`bytearray` and notes its ``(log_time,
+offset)`` in the channel's message index; when the chunk is closed (size limit or flush period)
+:meth:`ChunkBuilder.close` compresses the records once (zstd / lz4; both release the GIL) and
+packs the *Chunk* record (0x06) and one *MessageIndex* record (0x07) per channel. The mcap
+package's ``Writer.add_message`` does the same through a dataclass per message and a
+``BytesIO``-based builder, several microseconds of Python per message under the GIL (the time the
+simulation thread loses while recording).
+
+Record layouts (MCAP specification, little endian; every record is ``opcode u8, length u64,
+body``):
+
+- Message: ``channel_id u16, sequence u32, log_time u64, publish_time u64, data`` (rest of the
+  record);
+- Chunk: ``message_start_time u64, message_end_time u64, uncompressed_size u64,
+  uncompressed_crc u32, compression (u32 length + UTF-8), records (u64 length + bytes)``;
+- MessageIndex: ``channel_id u16, records (u32 byte length + (log_time u64, offset u64)...)``,
+  offsets counted from the start of the uncompressed chunk records.
+
+May import zstandard, lz4 and the standard library.
+"""
+
+from __future__ import annotations
+
+import struct
+import sys
+import zlib
+from array import array
+from collections.abc import Callable
+
+OP_MESSAGE = 0x05
+OP_CHUNK = 0x06
+OP_MESSAGE_INDEX = 0x07
+
+#: Message record up to its data: opcode, record length, channel id, sequence, log/publish time.
+_MESSAGE_HEAD = struct.Struct("<BQHIQQ")
+#: Bytes of a Message record's body before its data (the record length is this + len(data)).
+MESSAGE_BODY_HEAD = 2 + 4 + 8 + 8
+_CHUNK_HEAD = struct.Struct("<BQQQQI")  # opcode, length, start, end, uncompressed size, crc
+_U32 = struct.Struct("<I")
+_U64 = struct.Struct("<Q")
+_MESSAGE_INDEX_HEAD = struct.Struct("<BQHI")  # opcode, length, channel id, byte length
+_SEQUENCE_MASK = 0xFFFF_FFFF
+_BIG_ENDIAN = sys.byteorder == "big"
+
+
+def compressor(kind: str) -> tuple[str, Callable[[bytes], bytes] | None]:
+    """The Chunk record's ``compression`` name and the function that compresses chunk records.
+
+    Parameters
+    ----------
+    kind : {"zstd", "lz4", "none", ""}
+        Requested compression.
+
+    Returns
+    -------
+    name : str
+        ``"zstd"``, ``"lz4"`` or ``""`` (uncompressed), as the MCAP specification names them.
+    compress : callable or None
+        ``bytes -> bytes`` (``None`` for uncompressed chunks).
+    """
+    if kind == "zstd":
+        import zstandard
+
+        return "zstd", zstandard.ZstdCompressor(level=3).compress
+    if kind == "lz4":
+        import lz4.frame
+
+        return "lz4", lz4.frame.compress
+    if kind in ("none", ""):
+        return "", None
+    raise ValueError(f"compression={kind!r}: allowed 'zstd', 'lz4', 'none'")
+
+
+class ChannelState:
+    """One recorded channel: id, next sequence number and its message index in the open chunk.
+
+    Attributes
+    ----------
+    id : int
+        MCAP channel id (1 .. 65535).
+    topic : str
+        Topic name.
+    count : int
+        Messages accepted so far (the next message's sequence number, modulo 2**32).
+    entries : array of uint64
+        ``log_time, offset`` pairs of the channel's messages in the open chunk.
+    """
+
+    __slots__ = ("id", "topic", "count", "entries")
+
+    def __init__(self, channel_id: int, topic: str) -> None:
+        if not 0 < channel_id <= 0xFFFF:
+            raise ValueError(f"channel id {channel_id} outside 1 .. 65535")
+        self.id = channel_id
+        self.topic = topic
+        self.count = 0
+        self.entries = array("Q")
+
+
+class ClosedChunk:
+    """The bytes of a closed chunk and what its chunk index and the statistics need.
+
+    Attributes
+    ----------
+    chunk : list of bytes
+        The Chunk record, in pieces to be written in order (no copy of the compressed data).
+    chunk_length : int
+        Bytes of the Chunk record.
+    message_indexes : bytes
+        The MessageIndex records, one per channel, to be written right after the chunk.
+    message_index_offsets : dict of int -> int
+        Channel id -> offset of its MessageIndex record from the start of ``message_indexes``.
+    channel_counts : dict of int -> int
+        Channel id -> messages in the chunk.
+    message_start_time, message_end_time : int
+        Smallest and largest log time in the chunk [ns].
+    compression : str
+        ``"zstd"``, ``"lz4"`` or ``""``.
+    compressed_size, uncompressed_size : int
+        Bytes of the chunk's records as stored and before compression.
+    messages : int
+        Messages in the chunk.
+    """
+
+    __slots__ = ("chunk", "chunk_length", "message_indexes", "message_index_offsets",
+                 "channel_counts", "message_start_time", "message_end_time", "compression",
+                 "compressed_size", "uncompressed_size", "messages")
+
+    def __init__(self, **kw: object) -> None:
+        for k, v in kw.items():
+            setattr(self, k, v)
+
+
+class ChunkBuilder:
+    """Message records of the open chunk and their per-channel message indexes.
+
+    Parameters
+    ----------
+    chunk_size : int
+        Uncompressed record bytes after which :meth:`add` reports the chunk full.
+    compression : {"zstd", "lz4", "none"}
+        Compression of the chunk records (see :func:`compressor`).
+    """
+
+    __slots__ = ("buf", "channels", "messages", "start", "end", "chunk_size", "_name",
+                 "_compress")
+
+    def __init__(self, chunk_size: int = 1 << 20, compression: str = "zstd") -> None:
+        self._name, self._compress = compressor(compression)
+        self.chunk_size = int(chunk_size)
+        self.buf = bytearray()
+        self.channels: list[ChannelState] = []
+        self.messages = 0
+        self.start = 1 << 64
+        self.end = 0
+
+    def add(self, ch: ChannelState, data: bytes, log_time: int, publish_time: int) -> bool:
+        """Append one Message record; True when the chunk has reached ``chunk_size`` bytes.
+
+        Raises (and leaves the chunk unchanged) when a field does not fit its MCAP type
+        (negative or >= 2**64 time) or ``data`` is not bytes-like.
+        """
+        buf = self.buf
+        off = len(buf)
+        head = _MESSAGE_HEAD.pack(OP_MESSAGE, MESSAGE_BODY_HEAD + len(data), ch.id,
+                                  ch.count & _SEQUENCE_MASK, log_time, publish_time)
+        buf += head
+        try:
+            buf += data
+        except BaseException:
+            del buf[off:]
+            raise
+        e = ch.entries
+        if not e:
+            self.channels.append(ch)
+        e.append(log_time)
+        e.append(off)
+        ch.count += 1
+        self.messages += 1
+        if log_time < self.start:
+            self.start = log_time
+        if log_time > self.end:
+            self.end = log_time
+        return len(buf) >= self.chunk_size
+
+    def close(self) -> ClosedChunk | None:
+        """Pack the Chunk and MessageIndex records and empty the builder (None if no message)."""
+        if not self.messages:
+            return None
+        raw = self.buf  # replaced by a new buffer below: no copy needed
+        crc = zlib.crc32(raw)
+        stored = raw if self._compress is None else self._compress(raw)
+        name = self._name.encode()
+        body_len = 8 + 8 + 8 + 4 + 4 + len(name) + 8 + len(stored)
+        head = (_CHUNK_HEAD.pack(OP_CHUNK, body_len, self.start, self.end, len(raw), crc)
+                + _U32.pack(len(name)) + name + _U64.pack(len(stored)))
+        index = bytearray()
+        offsets: dict[int, int] = {}
+        counts: dict[int, int] = {}
+        for ch in self.channels:
+            e = ch.entries
+            if _BIG_ENDIAN:  # pragma: no cover - MCAP is little endian
+                e.byteswap()
+            pairs = e.tobytes()
+            offsets[ch.id] = len(index)
+            counts[ch.id] = len(e) // 2
+            index += _MESSAGE_INDEX_HEAD.pack(OP_MESSAGE_INDEX, 2 + 4 + len(pairs), ch.id,
+                                              len(pairs))
+            index += pairs
+            ch.entries = array("Q")
+        closed = ClosedChunk(
+            chunk=[head, stored], chunk_length=9 + body_len, message_indexes=bytes(index),
+            message_index_offsets=offsets, channel_counts=counts, message_start_time=self.start,
+            message_end_time=self.end, compression=self._name, compressed_size=len(stored),
+            uncompressed_size=len(raw), messages=self.messages)
+        self.discard()
+        return closed
+
+    def discard(self) -> list[ChannelState]:
+        """Empty the builder without writing; returns the channels that had messages in it."""
+        chans = self.channels
+        for ch in chans:
+            ch.entries = array("Q")
+        self.buf = bytearray()
+        self.channels = []
+        self.messages = 0
+        self.start = 1 << 64
+        self.end = 0
+        return chans
