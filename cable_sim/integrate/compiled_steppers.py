@@ -1,8 +1,9 @@
 """Compiled explicit steppers: many checked RK4 or symplectic Euler steps in one numba call.
 
-Each step evaluates the O(n) forward dynamics (:func:`cable_sim.core.kernel.forward.fd_packed`)
-and ends with the compiled check (:func:`cable_sim.core.kernel.checks.check_packed`); the
-Python-level schemes are :mod:`cable_sim.integrate.explicit`.
+Each step evaluates the O(n) forward dynamics (:func:`cable_sim.core.kernel.forward.fd_packed_ws`,
+its workspace allocated once per run) and ends with the compiled check
+(:func:`cable_sim.core.kernel.checks.check_packed`); the Python-level schemes are
+:mod:`cable_sim.integrate.explicit`.
 
 Integrate layer: imports numba, numpy and the compiled kernel (:mod:`cable_sim.core.kernel`).
 """
@@ -13,15 +14,16 @@ import numba as nb
 import numpy as np
 
 from cable_sim.core.kernel.checks import STATUS_OK, STATUS_SINGULAR, check_packed
-from cable_sim.core.kernel.forward import fd_packed
+from cable_sim.core.kernel.forward import fd_packed_ws, fd_workspace
 
 
 @nb.njit(cache=True, inline="always")
 def _slope(arr: np.ndarray, par: np.ndarray, u: float, eta: float, ys: np.ndarray, qdd: np.ndarray,
-           lam: np.ndarray, out: np.ndarray) -> bool:
-    """``out = [qd, qdd]`` at the state ``ys``; False if the anchor matrix is singular."""
+           lam: np.ndarray, out: np.ndarray, ws: np.ndarray) -> bool:
+    """``out = [qd, qdd]`` at the state ``ys`` (``ws``: forward-dynamics workspace); False if the
+    anchor matrix is singular."""
     n1 = qdd.shape[0]
-    if not fd_packed(arr, par, u, eta, ys[:n1], ys[n1:], qdd, lam):
+    if not fd_packed_ws(arr, par, u, eta, ys[:n1], ys[n1:], qdd, lam, ws):
         return False
     out[:n1] = ys[n1:]
     out[n1:] = qdd
@@ -55,20 +57,21 @@ def rk4_run(arr: np.ndarray, par: np.ndarray, h: float, u: np.ndarray, eta: np.n
     yn = np.empty(n2)
     qdd = np.empty(n2 // 2)
     lam = np.empty(2)
+    ws = fd_workspace(arr.shape[1])
     hh = h / 2
     h6 = h / 6
     for k in range(u.shape[0]):
         info[1] = k
-        if not _slope(arr, par, u[k, 0], eta[k, 0], y, qdd, lam, k1):
+        if not _slope(arr, par, u[k, 0], eta[k, 0], y, qdd, lam, k1, ws):
             return STATUS_SINGULAR
         _axpy(y, hh, k1, ys)
-        if not _slope(arr, par, u[k, 1], eta[k, 1], ys, qdd, lam, k2):
+        if not _slope(arr, par, u[k, 1], eta[k, 1], ys, qdd, lam, k2, ws):
             return STATUS_SINGULAR
         _axpy(y, hh, k2, ys)
-        if not _slope(arr, par, u[k, 1], eta[k, 1], ys, qdd, lam, k3):
+        if not _slope(arr, par, u[k, 1], eta[k, 1], ys, qdd, lam, k3, ws):
             return STATUS_SINGULAR
         _axpy(y, h, k3, ys)
-        if not _slope(arr, par, u[k, 2], eta[k, 2], ys, qdd, lam, k4):
+        if not _slope(arr, par, u[k, 2], eta[k, 2], ys, qdd, lam, k4, ws):
             return STATUS_SINGULAR
         for j in range(n2):
             yn[j] = y[j] + h6 * (k1[j] + 2 * k2[j] + 2 * k3[j] + k4[j])
@@ -89,9 +92,10 @@ def symplectic_euler_run(arr: np.ndarray, par: np.ndarray, h: float, u: np.ndarr
     qdd = np.empty(n1)
     lam = np.empty(2)
     yn = np.empty(n2)
+    ws = fd_workspace(arr.shape[1])
     for k in range(u.shape[0]):
         info[1] = k
-        if not fd_packed(arr, par, u[k], eta[k], y[:n1], y[n1:], qdd, lam):
+        if not fd_packed_ws(arr, par, u[k], eta[k], y[:n1], y[n1:], qdd, lam, ws):
             return STATUS_SINGULAR
         for j in range(n1):
             yn[n1 + j] = y[n1 + j] + h * qdd[j]

@@ -87,14 +87,15 @@ from cable_sim.core.model import CableModel
 def applied_link_forces(
     l: np.ndarray, mw: np.ndarray, gl2: np.ndarray, cn: np.ndarray, ct: np.ndarray,
     current: float, drag: int, g: float, qd: np.ndarray, cth: np.ndarray, sth: np.ndarray,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Force on each link centre (weight - buoyancy + Morison drag) and couple (paper drag)."""
+    fgx: np.ndarray, fgz: np.ndarray, cpl: np.ndarray,
+) -> None:
+    """Force on each link centre (weight - buoyancy + Morison drag) into ``fgx, fgz`` and couple
+    (paper drag) into ``cpl`` (all overwritten)."""
     n = l.shape[0]
-    fgx = np.zeros(n)
-    fgz = np.empty(n)
-    cpl = np.zeros(n)
     for i in range(n):
+        fgx[i] = 0.0
         fgz[i] = -mw[i] * g
+        cpl[i] = 0.0
     if drag == 1:
         for i in range(n):
             w = qd[i + 1]
@@ -108,22 +109,19 @@ def applied_link_forces(
             fgx[i] += fx
             fgz[i] += fz
             vx, vz = next_pin_velocity(vx, vz, l[i], cth[i], sth[i], qd[i + 1])
-    return fgx, fgz, cpl
 
 
 @nb.njit(cache=True, inline="always")
 def add_seabed_loads(
     l: np.ndarray, zb: float, kb: np.ndarray, cb: np.ndarray, mua: np.ndarray, mut: np.ndarray,
     vc: float, q: np.ndarray, qd: np.ndarray, cth: np.ndarray, sth: np.ndarray, fgx: np.ndarray,
-    fgz: np.ndarray, cpl: np.ndarray,
+    fgz: np.ndarray, cpl: np.ndarray, F: np.ndarray, S: np.ndarray,
 ) -> None:
     """Seabed contact on each link (exact over its length, :mod:`cable_sim.core.kernel.contact`)
     as a force at the centre plus a couple: resultant F and first moment S about the upper pin
-    give ``fg += F`` and ``cpl += t . (S - l/2 F)`` (so that the link's own generalised force is
-    t . S, like the per-link drag force)."""
+    (scratch arrays (n, 2), overwritten) give ``fg += F`` and ``cpl += t . (S - l/2 F)`` (so
+    that the link's own generalised force is t . S, like the per-link drag force)."""
     n = l.shape[0]
-    F = np.empty((n, 2))
-    S = np.empty((n, 2))
     seabed_links_nb(l, zb, kb, cb, mua, mut, vc, q, qd, F, S)
     for i in range(n):
         fgx[i] += F[i, 0]
@@ -137,12 +135,13 @@ def heavy_load_correction(mc: float, endx: np.ndarray, endz: np.ndarray, sol: np
                           qdd: np.ndarray) -> None:
     """``(M_s + m_c J^T J) qdd = Q``: ``qdd = qdd_s + X f``, ``f = -(J X + I/m_c)^-1 a_end,s``.
 
-    (f: the load's inertial force on the line end; X = M_s^-1 J^T, the unit-force columns of
-    ``sol``; a_end,s = J qdd_s + bias, the end acceleration of the applied-force column.)
+    (f: the load's inertial force on the line end; X = M_s^-1 J^T, the unit-force solutions
+    ``sol[0]``, ``sol[1]``; a_end,s = J qdd_s + bias, the end acceleration of the applied-force
+    right-hand side, ``endx[0], endz[0]``; those of the unit forces ``endx[1:], endz[1:]``.)
     """
     eps = 1.0 / mc
     f0, f1 = solve_2x2(endx[1] + eps, endx[2], endz[1], endz[2] + eps, -endx[0], -endz[0])
-    add_columns(qdd, sol[1], f0, sol[2], f1)
+    add_columns(qdd, sol[0], f0, sol[1], f1)
 
 
 @nb.njit(cache=True)
@@ -153,7 +152,8 @@ def anchor_correction(
 ) -> bool:
     """Schur complement of the anchor: ``lambda = (J X)^-1 (gamma - J qdd_free)``, ``qdd += X lambda``.
 
-    ``J X = J M^-1 J^T``: column k is the end acceleration under unit force k. Returns False if
+    ``J X = J M^-1 J^T``: column k is the end acceleration under unit force k (``endx[k + 1],
+    endz[k + 1]``; X: ``sol[0]``, ``sol[1]``). Returns False if
     it is numerically singular (e.g. one link on a locked platform: 1 dof, 2 constraints).
     """
     rx, rz = constraint_rhs(l, cth, sth, ax, az, balpha, bbeta, q, qd, qdd)
@@ -162,8 +162,37 @@ def anchor_correction(
     l0, l1 = solve_2x2(endx[1], endx[2], endz[1], endz[2], rx, rz)
     lam[0] = l0
     lam[1] = l1
-    add_columns(qdd, sol[1], l0, sol[2], l1)
+    add_columns(qdd, sol[0], l0, sol[1], l1)
     return True
+
+
+# ---- workspace -------------------------------------------------------------------------------
+
+# rows of the forward-dynamics workspace (FD_ROWS x max(n + 1, 3)): link cos/sin, joint torques,
+# applied centre forces and couples, the sweep's D, h and R (three right-hand sides), the outward
+# solutions of the two unit end forces, the right-hand sides' end forces and end accelerations,
+# and four rows holding the seabed's per-link resultants and first moments ((n, 2) each)
+(_F_COS, _F_SIN, _F_TAU, _F_FGX, _F_FGZ, _F_CPL, _F_DD, _F_HX, _F_HZ, _F_RR, _F_SOL, _F_BX,
+ _F_BZ, _F_ENDX, _F_ENDZ, _F_BED) = (0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 12, 14, 15, 16, 17, 18)
+#: Rows of the forward-dynamics workspace (:func:`fd_workspace`).
+FD_ROWS = 22
+
+
+@nb.njit(cache=True)
+def fd_workspace(n: int) -> np.ndarray:
+    """Scratch of :func:`fd_packed_ws` for n links, shape ``(FD_ROWS, max(n + 1, 3))``.
+
+    It carries nothing from one call to the next (every entry read is written first in the
+    same call), so one workspace serves any number of calls, states and models of n links.
+    """
+    return np.empty((FD_ROWS, max(n + 1, 3)))
+
+
+@nb.njit(cache=True, inline="always")
+def fd_trig(ws: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """The cos/sin of the n links' angles left in a workspace by the last
+    :func:`fd_packed_ws` call with it (views, length n), for reuse at the same q."""
+    return ws[_F_COS, :n], ws[_F_SIN, :n]
 
 
 @nb.njit(cache=True)
@@ -174,9 +203,10 @@ def _fd_kernel(
     constrained: bool, ax: float, az: float, balpha: float, bbeta: float, seabed: bool, zb: float,
     kb: np.ndarray, cb: np.ndarray, mua: np.ndarray, mut: np.ndarray, vc: float, mn: np.ndarray,
     me: np.ndarray, u: float, eta: float, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray,
-    lam: np.ndarray,
+    lam: np.ndarray, ws: np.ndarray,
 ) -> bool:
-    """Articulated-body forward dynamics; writes ``qdd`` and ``lam``.
+    """Articulated-body forward dynamics; writes ``qdd`` and ``lam`` (``ws``: scratch from
+    :func:`fd_workspace`; its rows ``_F_COS``, ``_F_SIN`` hold the links' cos/sin afterwards).
 
     Steps: link trig, applied forces, the inward sweep (with the two unit end-force right-hand
     sides when anchored or for a heavy load), the outward sweep per right-hand side, then the
@@ -184,21 +214,29 @@ def _fd_kernel(
     constraint matrix is singular to working precision.
     """
     n = l.shape[0]
-    cth = np.empty(n)
-    sth = np.empty(n)
+    cth = ws[_F_COS, :n]
+    sth = ws[_F_SIN, :n]
     link_trig(q, cth, sth)
-    tau = joint_torques(jk, jc, q, qd)
-    fgx, fgz, cpl = applied_link_forces(l, mw, gl2, cn, ct, current, drag, g, qd, cth, sth)
+    tau = ws[_F_TAU, :n + 1]
+    joint_torques(jk, jc, q, qd, tau)
+    fgx = ws[_F_FGX, :n]
+    fgz = ws[_F_FGZ, :n]
+    cpl = ws[_F_CPL, :n]
+    applied_link_forces(l, mw, gl2, cn, ct, current, drag, g, qd, cth, sth, fgx, fgz, cpl)
     if seabed:
-        add_seabed_loads(l, zb, kb, cb, mua, mut, vc, q, qd, cth, sth, fgx, fgz, cpl)
+        F = ws[_F_BED:_F_BED + 2].reshape(-1)[:2 * n].reshape((n, 2))
+        S = ws[_F_BED + 2:_F_BED + 4].reshape(-1)[:2 * n].reshape((n, 2))
+        add_seabed_loads(l, zb, kb, cb, mua, mut, vc, q, qd, cth, sth, fgx, fgz, cpl, F, S)
     heavy = woodbury_load(m, mc, constrained, locked)
     nrhs = 3 if (constrained or heavy) else 1
-    dd = np.empty(n)
-    hx = np.empty(n)
-    hz = np.empty(n)
-    rr = np.empty((nrhs, n))
-    bx = np.zeros(nrhs)
-    bz = np.zeros(nrhs)
+    dd = ws[_F_DD, :n]
+    hx = ws[_F_HX, :n]
+    hz = ws[_F_HZ, :n]
+    rr = ws[_F_RR:_F_RR + nrhs]
+    bx = ws[_F_BX, :nrhs]
+    bz = ws[_F_BZ, :nrhs]
+    bx[:] = 0.0
+    bz[:] = 0.0
     bz[0] = mcw * g
     if nrhs == 3:
         bx[1] = -1.0  # unit external force +x on p_n: the link exerts -F on "the end"
@@ -208,17 +246,17 @@ def _fd_kernel(
     q0 = u - hk * q[0] - hc * qd[0]
     if wave:
         q0 += hk * eta
-    endx = np.zeros(nrhs)
-    endz = np.zeros(nrhs)
-    sol = np.zeros((nrhs, n + 1))
-    # no joint armature here (the beta argument, dd, is not read); velocity terms in rhs 0 only
+    endx = ws[_F_ENDX, :nrhs]
+    endz = ws[_F_ENDZ, :nrhs]
+    # no joint armature here (the beta argument, dd, is not read); velocity terms in rhs 0 only;
+    # rhs 0 straight into qdd, the unit end forces into the rows of sol (sol[k - 1]: rhs k)
     zdd = 0.0 if locked else (q0 - bz[0]) / (mp + azz)
-    endx[0], endz[0] = outward_sweep(l, cth, sth, qd, True, dd, False, rr[0], hx, hz, dd, zdd, sol[0])
+    endx[0], endz[0] = outward_sweep(l, cth, sth, qd, True, dd, False, rr[0], hx, hz, dd, zdd, qdd)
+    sol = ws[_F_SOL:_F_SOL + 2]
     for k in range(1, nrhs):
         zdd = 0.0 if locked else (0.0 - bz[k]) / (mp + azz)
         endx[k], endz[k] = outward_sweep(l, cth, sth, qd, False, dd, False, rr[k], hx, hz, dd, zdd,
-                                         sol[k])
-    qdd[:] = sol[0]
+                                         sol[k - 1])
     lam[0] = 0.0
     lam[1] = 0.0
     if heavy:
@@ -230,16 +268,24 @@ def _fd_kernel(
 
 
 @nb.njit(cache=True)
-def fd_packed(arr: np.ndarray, par: np.ndarray, u: float, eta: float, q: np.ndarray, qd: np.ndarray,
-              qdd: np.ndarray, lam: np.ndarray) -> bool:
-    """:func:`_fd_kernel` on the packed model (same arithmetic, same results)."""
+def fd_packed_ws(arr: np.ndarray, par: np.ndarray, u: float, eta: float, q: np.ndarray,
+                 qd: np.ndarray, qdd: np.ndarray, lam: np.ndarray, ws: np.ndarray) -> bool:
+    """:func:`_fd_kernel` on the packed model with the caller's workspace ``ws``
+    (:func:`fd_workspace`; the compiled steppers allocate it once per run)."""
     return _fd_kernel(
         arr[0], arr[1], arr[2], arr[3], arr[4], arr[5], arr[6], arr[7],
         par[0], int(par[1]), par[2], par[3], par[4], par[5], par[6], par[7] != 0.0,
         par[8] != 0.0, par[9], par[10] != 0.0, par[11], par[12], par[13], par[14],
         par[17] != 0.0, par[18], arr[8], arr[9], arr[10], arr[11], par[19], arr[12], arr[13],
-        u, eta, q, qd, qdd, lam,
+        u, eta, q, qd, qdd, lam, ws,
     )
+
+
+@nb.njit(cache=True)
+def fd_packed(arr: np.ndarray, par: np.ndarray, u: float, eta: float, q: np.ndarray, qd: np.ndarray,
+              qdd: np.ndarray, lam: np.ndarray) -> bool:
+    """:func:`fd_packed_ws` with a workspace of its own (same arithmetic, same results)."""
+    return fd_packed_ws(arr, par, u, eta, q, qd, qdd, lam, fd_workspace(arr.shape[1]))
 
 
 # ---- Python API --------------------------------------------------------------------------------
@@ -287,6 +333,7 @@ def forward_dynamics(
         qdv,
         qdd,
         lam,
+        fd_workspace(model.n),
     )
     if not ok:
         raise np.linalg.LinAlgError("singular anchor constraint matrix J M^-1 J^T")

@@ -15,8 +15,21 @@ import numpy as np
 
 from cable_sim.core.kernel.contact import seabed_links_nb
 from cable_sim.core.kernel.packing import pack, vec
-from cable_sim.core.kernel.sweeps import centre_velocity, link_drag, next_pin_velocity
+from cable_sim.core.kernel.sweeps import centre_velocity, link_drag, link_trig, next_pin_velocity
 from cable_sim.core.model import CableModel
+
+#: Rows of the joint-force workspace (:func:`jf_workspace`): link cos/sin, link-centre
+#: accelerations (x, z), per-link applied forces other than gravity (x, z), and four rows
+#: holding the seabed's per-link resultants and first moments ((n, 2) each).
+JF_ROWS = 10
+_J_COS, _J_SIN, _J_ACX, _J_ACZ, _J_DFX, _J_DFZ, _J_BED = 0, 1, 2, 3, 4, 5, 6
+
+
+@nb.njit(cache=True)
+def jf_workspace(n: int) -> np.ndarray:
+    """Scratch of :func:`joint_forces_packed_ws` for n links, shape ``(JF_ROWS, n + 1)``; it
+    carries nothing from one call to the next (every entry read is written first)."""
+    return np.empty((JF_ROWS, n + 1))
 
 
 @nb.njit(cache=True)
@@ -25,13 +38,16 @@ def _joint_forces_kernel(
     drag: int, mc: float, mcw: float, g: float, constrained: bool, lamx: float, lamz: float,
     q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, seabed: bool, zb: float, kb: np.ndarray,
     cb: np.ndarray, mua: np.ndarray, mut: np.ndarray, vc: float, mn: np.ndarray, me: np.ndarray,
-) -> np.ndarray:
-    """Joint forces by the Newton recursion from the end (see ``dynamics.joint_forces``)."""
+    cth: np.ndarray, sth: np.ndarray, ws: np.ndarray, out: np.ndarray,
+) -> None:
+    """Joint forces by the Newton recursion from the end (see ``dynamics.joint_forces``) into
+    ``out`` (n+1, 2); ``cth, sth``: cos/sin of the links' angles ``q[1:]``; ``ws``: scratch
+    (:func:`jf_workspace`)."""
     n = l.shape[0]
-    acx = np.empty(n)  # link-centre accelerations
-    acz = np.empty(n)
-    dfx = np.zeros(n)  # Morison drag on the centres
-    dfz = np.zeros(n)
+    acx = ws[_J_ACX]  # link-centre accelerations
+    acz = ws[_J_ACZ]
+    dfx = ws[_J_DFX]  # Morison drag (and seabed, added mass) on the centres
+    dfz = ws[_J_DFZ]
     # joint accelerations summed in the dense order (cumulative sum, platform added last) so
     # that the load force m_c a_n, which is a cancellation for a heavy load, rounds alike
     ax = 0.0
@@ -40,8 +56,8 @@ def _joint_forces_kernel(
     vz = qd[0]
     for i in range(n):
         li = l[i]
-        c = np.cos(q[i + 1])
-        s = np.sin(q[i + 1])
+        c = cth[i]
+        s = sth[i]
         w = qd[i + 1]
         a = qdd[i + 1]
         ax_next = ax + li * (c * a - s * w * w)
@@ -50,11 +66,14 @@ def _joint_forces_kernel(
         acz[i] = 0.5 * ((az + qdd[0]) + (az_next + qdd[0]))
         ax = ax_next
         az = az_next
+        dfx[i] = 0.0
+        dfz[i] = 0.0
         if drag == 2:
             vcx, vcz = centre_velocity(vx, vz, li, c, s, w, current)
             dfx[i], dfz[i] = link_drag(c, s, vcx, vcz, cn[i], ct[i])
         vx, vz = next_pin_velocity(vx, vz, li, c, s, w)
-    out = np.zeros((n + 1, 2))
+    out[n, 0] = 0.0
+    out[n, 1] = 0.0
     if constrained:
         out[n, 0] = -lamx
         out[n, 1] = -lamz
@@ -62,8 +81,8 @@ def _joint_forces_kernel(
         out[n, 0] = mc * ax
         out[n, 1] = mc * (az + qdd[0]) + mcw * g
     if seabed:
-        F = np.empty((n, 2))
-        S = np.empty((n, 2))
+        F = ws[_J_BED:_J_BED + 2].reshape(-1)[:2 * n].reshape((n, 2))
+        S = ws[_J_BED + 2:_J_BED + 4].reshape(-1)[:2 * n].reshape((n, 2))
         seabed_links_nb(l, zb, kb, cb, mua, mut, vc, q, qd, F, S)
         for i in range(n):
             dfx[i] += F[i, 0]
@@ -72,8 +91,8 @@ def _joint_forces_kernel(
         man = mn[i] - m[i]
         mat = me[i] - m[i]
         if man != 0.0 or mat != 0.0:  # added-mass force -l A a_c on the link
-            c = np.cos(q[i + 1])
-            s = np.sin(q[i + 1])
+            c = cth[i]
+            s = sth[i]
             at = c * acx[i] + s * acz[i]
             ae = s * acx[i] - c * acz[i]
             dfx[i] -= man * at * c + mat * ae * s
@@ -85,18 +104,33 @@ def _joint_forces_kernel(
         fz += m[i] * acz[i] - dfz[i] + mw[i] * g
         out[i, 0] = fx
         out[i, 1] = fz
-    return out
+
+
+@nb.njit(cache=True)
+def joint_forces_packed_ws(arr: np.ndarray, par: np.ndarray, lamx: float, lamz: float,
+                           q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, cth: np.ndarray,
+                           sth: np.ndarray, ws: np.ndarray, out: np.ndarray) -> None:
+    """:func:`_joint_forces_kernel` on the packed model into ``out`` (n+1, 2), with the links'
+    cos/sin ``cth, sth`` of ``q`` (e.g. those the forward dynamics just computed) and the
+    caller's workspace ``ws`` (:func:`jf_workspace`)."""
+    _joint_forces_kernel(
+        arr[0], arr[1], arr[2], arr[6], arr[7], par[0], int(par[1]), par[2], par[3], par[9],
+        par[10] != 0.0, lamx, lamz, q, qd, qdd, par[17] != 0.0, par[18], arr[8], arr[9], arr[10],
+        arr[11], par[19], arr[12], arr[13], cth, sth, ws, out,
+    )
 
 
 @nb.njit(cache=True)
 def joint_forces_packed(arr: np.ndarray, par: np.ndarray, lamx: float, lamz: float, q: np.ndarray,
                         qd: np.ndarray, qdd: np.ndarray) -> np.ndarray:
-    """:func:`_joint_forces_kernel` on the packed model."""
-    return _joint_forces_kernel(
-        arr[0], arr[1], arr[2], arr[6], arr[7], par[0], int(par[1]), par[2], par[3], par[9],
-        par[10] != 0.0, lamx, lamz, q, qd, qdd, par[17] != 0.0, par[18], arr[8], arr[9], arr[10],
-        arr[11], par[19], arr[12], arr[13],
-    )
+    """:func:`_joint_forces_kernel` on the packed model (allocates; returns F (n+1, 2))."""
+    n = arr.shape[1]
+    ws = jf_workspace(n)
+    link_trig(q, ws[_J_COS, :n], ws[_J_SIN, :n])
+    out = np.empty((n + 1, 2))
+    joint_forces_packed_ws(arr, par, lamx, lamz, q, qd, qdd, ws[_J_COS, :n], ws[_J_SIN, :n], ws,
+                           out)
+    return out
 
 
 def joint_forces(
@@ -130,7 +164,13 @@ def joint_forces(
     p = pack(model)
     lamx, lamz = (0.0, 0.0) if anchor_force is None else (float(anchor_force[0]),
                                                           float(anchor_force[1]))
-    return _joint_forces_kernel(
+    qv = vec(q, k, "q")
+    ws = jf_workspace(model.n)
+    cth, sth = ws[_J_COS, :model.n], ws[_J_SIN, :model.n]
+    link_trig(qv, cth, sth)
+    out = np.empty((k, 2))
+    _joint_forces_kernel(
         p[0], p[1], p[2], p[6], p[7], p[8], p[9], p[10], p[11], p[17], p[18], lamx, lamz,
-        vec(q, k, "q"), vec(qd, k, "qd"), vec(qdd, k, "qdd"), *p[23:32],
+        qv, vec(qd, k, "qd"), vec(qdd, k, "qdd"), *p[23:32], cth, sth, ws, out,
     )
+    return out

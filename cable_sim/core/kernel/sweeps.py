@@ -101,11 +101,11 @@ def joint_torque(k: float, c: float, th: float, th_prev: float, w: float, w_prev
 
 
 @nb.njit(cache=True, inline="always")
-def joint_torques(jk: np.ndarray, jc: np.ndarray, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
-    """``tau_1..tau_n`` of the joint springs/dampers on relative angles (joint 1 relative to the
-    vertical), and ``tau_(n+1) = 0``."""
+def joint_torques(jk: np.ndarray, jc: np.ndarray, q: np.ndarray, qd: np.ndarray,
+                  tau: np.ndarray) -> None:
+    """``tau[0..n-1] = tau_1..tau_n`` of the joint springs/dampers on relative angles (joint 1
+    relative to the vertical), and ``tau[n] = tau_(n+1) = 0`` (written in place, length n+1)."""
     n = jk.shape[0]
-    tau = np.empty(n + 1)
     th_prev = 0.0
     w_prev = 0.0
     for i in range(n):
@@ -113,7 +113,6 @@ def joint_torques(jk: np.ndarray, jc: np.ndarray, q: np.ndarray, qd: np.ndarray)
         th_prev = q[i + 1]
         w_prev = qd[i + 1]
     tau[n] = 0.0
-    return tau
 
 
 @nb.njit(cache=True, inline="always")
@@ -126,10 +125,14 @@ def woodbury_load(m: np.ndarray, mc: float, constrained: bool, locked: bool) -> 
     recursion is exact there).
     """
     n = m.shape[0]
+    if constrained or (locked and n == 1):
+        return False
     line_mass = 0.0
     for i in range(n):
         line_mass += m[i]
-    return (not constrained) and mc > line_mass and not (locked and n == 1)
+        if line_mass >= mc:  # masses are >= 0: the whole line is at least as heavy
+            return False
+    return True
 
 
 # ---- 2x2 articulated inertia in the link frame -------------------------------------------------

@@ -34,7 +34,8 @@ acceleration sweep, the Woodbury choice, the 2x2 end correction -- is the shared
 of :mod:`cable_sim.core.kernel.sweeps`.
 
 Factorisation workspace: ``W`` (``_NW`` rows of n per-link values), ``S`` (``_NS`` scalars),
-``X`` (the two unit end-force solutions ``M~^-1 J^T``, anchored end or heavy load).
+``X`` (the two unit end-force solutions ``M~^-1 J^T``, anchored end or heavy load); the solve
+and the product also use W's scratch rows, so nothing is allocated per call.
 
 Integrate layer: imports numba, numpy, :mod:`cable_sim.core.kernel` (contact, packing,
 sweeps) and :mod:`cable_sim.core.model`.
@@ -65,10 +66,11 @@ from cable_sim.core.kernel.sweeps import (
 )
 from cable_sim.core.model import CableModel
 
-# rows of the per-link workspace W (n columns); _W_CA, _W_CB: the link's seabed contact interval
+# rows of the per-link workspace W (n columns); _W_CA, _W_CB: the link's seabed contact interval;
+# _W_PX, _W_PZ: scratch of the product (per-link forces of the Morison and contact terms)
 (_W_COS, _W_SIN, _W_D, _W_UX, _W_UZ, _W_BETA, _W_ROT, _W_GT, _W_GE, _W_BCN, _W_DROT, _W_KGEO,
- _W_CA, _W_CB) = range(14)
-_NW = 14
+ _W_CA, _W_CB, _W_PX, _W_PZ) = range(16)
+_NW = 16
 # entries of the scalar workspace S
 _S_BETA0, _S_AZZ, _S_J00, _S_J01, _S_J10, _S_J11, _S_MODE, _S_MC = range(8)
 _NS = 8
@@ -83,9 +85,10 @@ _MODE_NONE, _MODE_CONSTRAINED, _MODE_HEAVY = 0.0, 1.0, 2.0
 @nb.njit(cache=True, inline="always")
 def _link_terms(arr: np.ndarray, par: np.ndarray, q: np.ndarray, qd: np.ndarray, hg: float,
                 kgeo: np.ndarray, W: np.ndarray, horizon: float) -> None:
-    """Per-link terms of ``M~`` at (q, qd) into W: cos/sin, joint armature ``beta``, extra
-    rotational inertia (paper drag ``drot``, tension stiffness ``kg``), extra centre masses
-    ``g_t, g_e`` (the Jacobian of the Morison force: ``2 c_n |v.t|``, ``2 c_t |v.e|``)."""
+    """Per-link terms of ``M~`` at (q, qd) into W (whose cos/sin rows already hold those of
+    q): joint armature ``beta``, extra rotational inertia (paper drag ``drot``, tension
+    stiffness ``kg``), extra centre masses ``g_t, g_e`` (the Jacobian of the Morison force:
+    ``2 c_n |v.t|``, ``2 c_t |v.e|``)."""
     n = arr.shape[1]
     l = arr[0]
     jk = arr[3]
@@ -96,7 +99,6 @@ def _link_terms(arr: np.ndarray, par: np.ndarray, q: np.ndarray, qd: np.ndarray,
     current = par[0]
     drag = int(par[1])
     hg2 = hg * hg
-    link_trig(q, W[_W_COS], W[_W_SIN])
     vx = 0.0
     vz = qd[0]
     for i in range(n):
@@ -306,7 +308,19 @@ def _op_unit_forces(arr: np.ndarray, par: np.ndarray, W: np.ndarray, S: np.ndarr
 def _op_factor(arr: np.ndarray, par: np.ndarray, q: np.ndarray, qd: np.ndarray, hg: float,
                kgeo: np.ndarray, W: np.ndarray, S: np.ndarray, X: np.ndarray,
                horizon: float) -> bool:
-    """Articulated inertias of ``M~ = M + hg D + hg^2 K`` at (q, qd); fills W, S, X.
+    """Articulated inertias of ``M~ = M + hg D + hg^2 K`` at (q, qd); fills W, S, X (the
+    links' cos/sin first, then :func:`_op_factor_trig`)."""
+    link_trig(q, W[_W_COS], W[_W_SIN])
+    return _op_factor_trig(arr, par, q, qd, hg, kgeo, W, S, X, horizon)
+
+
+@nb.njit(cache=True)
+def _op_factor_trig(arr: np.ndarray, par: np.ndarray, q: np.ndarray, qd: np.ndarray, hg: float,
+                    kgeo: np.ndarray, W: np.ndarray, S: np.ndarray, X: np.ndarray,
+                    horizon: float) -> bool:
+    """Articulated inertias of ``M~ = M + hg D + hg^2 K`` at (q, qd); fills W, S, X. W's rows
+    ``_W_COS``, ``_W_SIN`` must hold the cos/sin of the links' angles ``q[1:]`` already (the
+    compiled runs copy those of the forward dynamics at the same q).
 
     ``horizon`` (the step h in the schemes; 0: the Jacobian at (q, qd) itself): the seabed
     contact's terms cover the part of each link in the bed now or at ``q + horizon qd``
@@ -413,8 +427,8 @@ def _contact_product(arr: np.ndarray, hg: float, W: np.ndarray, rd: np.ndarray, 
     kb = arr[8]
     cb = arr[9]
     sth = W[_W_SIN]
-    fz = np.zeros(n)
-    mzs = np.zeros(n)
+    fz = W[_W_PX]  # per-link scratch: resultant and first moment of the z forces
+    mzs = W[_W_PZ]
     pd = rd[0]
     pk = rk[0]
     for i in range(n):
@@ -427,6 +441,9 @@ def _contact_product(arr: np.ndarray, hg: float, W: np.ndarray, rd: np.ndarray, 
             md = cb[i] * (h1 * pd + h2 * s * rd[i + 1]) + kb[i] * (h1 * pk + h2 * s * rk[i + 1])
             fz[i] = hg * fd
             mzs[i] = hg * md
+        else:
+            fz[i] = 0.0
+            mzs[i] = 0.0
         pd += l[i] * s * rd[i + 1]
         pk += l[i] * s * rk[i + 1]
     sz = 0.0
@@ -445,8 +462,8 @@ def _morison_product(l: np.ndarray, W: np.ndarray, rd: np.ndarray, out: np.ndarr
     sth = W[_W_SIN]
     gta = W[_W_GT]
     gea = W[_W_GE]
-    fxa = np.empty(n)
-    fza = np.empty(n)
+    fxa = W[_W_PX]  # per-link scratch: the forces hg G J_c rd
+    fza = W[_W_PZ]
     vx = 0.0
     vz = rd[0]
     for i in range(n):
@@ -466,13 +483,15 @@ def _morison_product(l: np.ndarray, W: np.ndarray, rd: np.ndarray, out: np.ndarr
 
 
 @nb.njit(cache=True)
-def _kgeo_from_forces(arr: np.ndarray, q: np.ndarray, F: np.ndarray, kgeo: np.ndarray) -> None:
-    """Tension stiffness ``kappa_i = max(0, l_i T_i)``, T_i the mean axial tension of link i."""
+def _kgeo_from_forces(arr: np.ndarray, cth: np.ndarray, sth: np.ndarray, F: np.ndarray,
+                      kgeo: np.ndarray) -> None:
+    """Tension stiffness ``kappa_i = max(0, l_i T_i)``, T_i the mean axial tension of link i
+    (``cth, sth``: cos/sin of the links' angles)."""
     n = arr.shape[1]
     l = arr[0]
     for i in range(n):
-        s = np.sin(q[i + 1])
-        c = np.cos(q[i + 1])
+        s = sth[i]
+        c = cth[i]
         # axial tension at the top (-F_i . e) and bottom (-F_{i+1} . e) of link i, e = (s, -c)
         t = -0.5 * ((F[i, 0] + F[i + 1, 0]) * s - (F[i, 1] + F[i + 1, 1]) * c)
         kgeo[i] = max(0.0, l[i] * t)

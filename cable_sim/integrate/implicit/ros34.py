@@ -50,8 +50,7 @@ import numpy as np
 from cable_sim.core import dynamics
 from cable_sim.core import kernel as fast
 from cable_sim.core.kernel.checks import STATUS_OK, STATUS_SINGULAR, check_packed
-from cable_sim.core.kernel.forward import fd_packed
-from cable_sim.core.kernel.joint_forces import joint_forces_packed
+from cable_sim.core.kernel.forward import fd_packed_ws
 from cable_sim.core.kernel.signals import sample_program
 from cable_sim.core.model import CableModel
 from cable_sim.core.params import CableParams
@@ -60,15 +59,9 @@ from cable_sim.integrate.base import _WARMED, Integrator
 from cable_sim.integrate.checks import disarm
 from cable_sim.integrate.errors import ENERGY_JUMP, OSCILLATION, IntegrationError
 from cable_sim.integrate.implicit.dense import _dense_solve, dense_operator
-from cable_sim.integrate.implicit.operator import (
-    _NS,
-    _NW,
-    _dk_product,
-    _kgeo_from_forces,
-    _op_factor,
-    _op_solve,
-)
+from cable_sim.integrate.implicit.operator import _dk_product, _op_solve
 from cable_sim.integrate.implicit.operator import geometric_stiffness as _geometric_stiffness
+from cable_sim.integrate.implicit.run import _factor_at, factor_workspace
 
 # --------------------------------------------------------------------------------------------
 # Coefficients (Rang & Angermann 2005, ROS34PW2; classical form)
@@ -119,15 +112,16 @@ INPUT_SPACING = 0.02
 
 @nb.njit(cache=True)
 def _ros_step(arr: np.ndarray, par: np.ndarray, geometric: bool, predict: bool, h: float, us: np.ndarray,
-              es: np.ndarray, y: np.ndarray, yn: np.ndarray, err: np.ndarray, W: np.ndarray,
-              S: np.ndarray, X: np.ndarray, kgeo: np.ndarray, sq: np.ndarray, sv: np.ndarray,
-              wk: np.ndarray, at: np.ndarray, ct: np.ndarray, mt: np.ndarray, et: np.ndarray,
-              gamma: float) -> bool:
+              es: np.ndarray, y: np.ndarray, yn: np.ndarray, err: np.ndarray, fs: tuple,
+              sq: np.ndarray, sv: np.ndarray, wk: np.ndarray, at: np.ndarray, ct: np.ndarray,
+              mt: np.ndarray, et: np.ndarray, gamma: float) -> bool:
     """One ROS34PW2 step of h from y into ``yn`` and the embedded difference into ``err``
     (both ``2(n+1)``); ``us[i], es[i]`` are the inputs at stage i's time. Returns False when a
-    force evaluation or the factorisation is singular. ``wk`` is a (8, n+1) workspace."""
+    force evaluation or the factorisation is singular. ``fs`` is the factorisation's scratch
+    (:func:`cable_sim.integrate.implicit.run.factor_workspace`), ``wk`` a (9, n+1) workspace."""
     n1 = y.shape[0] // 2
     hg = gamma * h
+    fw, jw, F, kgeo, W, S, X = fs
     Yq = wk[0]
     Yv = wk[1]
     acc = wk[2]
@@ -135,7 +129,7 @@ def _ros_step(arr: np.ndarray, par: np.ndarray, geometric: bool, predict: bool, 
     rk = wk[4]
     rhs = wk[5]
     x = wk[6]
-    lam = np.empty(2)
+    lam = wk[8, :2]
     ns = at.shape[0]
     for i in range(ns):
         for j in range(n1):
@@ -146,19 +140,17 @@ def _ros_step(arr: np.ndarray, par: np.ndarray, geometric: bool, predict: bool, 
                 yv += h * at[i, m] * sv[m, j]
             Yq[j] = yq
             Yv[j] = yv
-        if not fd_packed(arr, par, us[i], es[i], Yq, Yv, acc, lam):
+        if not fd_packed_ws(arr, par, us[i], es[i], Yq, Yv, acc, lam, fw):
             return False
         if i == 0:
-            if geometric:
-                F = joint_forces_packed(arr, par, lam[0], lam[1], Yq, Yv, acc)
-                _kgeo_from_forces(arr, Yq, F, kgeo)
             # drag linearised at the predicted velocity v + h a (a W-method keeps its order for
             # any W; at rest the drag Jacobian at v itself is zero and the first steps of a
             # free fall would treat the drag explicitly)
             vp = wk[7]
             for j in range(n1):
                 vp[j] = Yv[j] + h * acc[j] if predict else Yv[j]
-            if not _op_factor(arr, par, Yq, vp, hg, kgeo, W, S, X, h):
+            if not _factor_at(arr, par, geometric, hg, Yq, Yv, acc, lam, vp, fw, jw, F, kgeo, W, S,
+                              X, h):
                 return False
         for j in range(n1):
             rq = Yv[j]
@@ -195,11 +187,12 @@ def _ros_step(arr: np.ndarray, par: np.ndarray, geometric: bool, predict: bool, 
 
 @nb.njit(cache=True, inline="always")
 def _workspace(n: int, ns: int):
-    """Scratch arrays of one compiled run (operator workspace W, S, X, geometric stiffness,
-    stage positions/velocities, work rows, new state and error) for n links and ns stages."""
+    """Scratch arrays of one compiled run (the factorisation's scratch of
+    :func:`cable_sim.integrate.implicit.run.factor_workspace`, stage positions/velocities, work
+    rows, new state and error) for n links and ns stages."""
     n1 = n + 1
-    return (np.zeros((_NW, n)), np.zeros(_NS), np.zeros((2, n1)), np.zeros(n), np.zeros((ns, n1)),
-            np.zeros((ns, n1)), np.zeros((8, n1)), np.empty(2 * n1), np.empty(2 * n1))
+    return (factor_workspace(n), np.zeros((ns, n1)), np.zeros((ns, n1)),
+            np.zeros((9, max(n1, 2))), np.empty(2 * n1), np.empty(2 * n1))
 
 
 @nb.njit(cache=True)
@@ -210,11 +203,11 @@ def _ros_fixed_run(arr: np.ndarray, par: np.ndarray, geometric: bool, predict: b
     """``u.shape[0]`` checked fixed steps (``u[k, i]``: input at stage i of step k), in place
     on y; as :func:`cable_sim.integrate.implicit.run._implicit_run`."""
     ns = at.shape[0]
-    W, S, X, kgeo, sq, sv, wk, yn, err = _workspace(arr.shape[1], ns)
+    fs, sq, sv, wk, yn, err = _workspace(arr.shape[1], ns)
     for k in range(u.shape[0]):
         info[1] = k
-        ok = _ros_step(arr, par, geometric, predict, h, u[k], eta[k], y, yn, err, W, S, X, kgeo, sq, sv,
-                       wk, at, ct, mt, et, gamma)
+        ok = _ros_step(arr, par, geometric, predict, h, u[k], eta[k], y, yn, err, fs, sq, sv, wk,
+                       at, ct, mt, et, gamma)
         info[0] += ns
         if not ok:
             return STATUS_SINGULAR
@@ -353,7 +346,7 @@ def _ros_adaptive_run(arr: np.ndarray, par: np.ndarray, geometric: bool, predict
     ``info = [force evaluations, accepted steps, value, t reached, rejected steps]``.
     """
     ns = at.shape[0]
-    W, S, X, kgeo, sq, sv, wk, yn, err = _workspace(arr.shape[1], ns)
+    fs, sq, sv, wk, yn, err = _workspace(arr.shape[1], ns)
     us = np.empty(ns)
     es = np.empty(ns)
     atol, rtol, hmax, hmin = ctl[0], ctl[1], ctl[5], ctl[6]
@@ -365,8 +358,8 @@ def _ros_adaptive_run(arr: np.ndarray, par: np.ndarray, geometric: bool, predict
             ts = t + ctimes[i] * hs
             us[i] = _interp(ts, tin0, tdt, uin)
             es[i] = _interp(ts, tin0, tdt, ein)
-        ok = _ros_step(arr, par, geometric, predict, hs, us, es, y, yn, err, W, S, X, kgeo, sq, sv, wk,
-                       at, ct, mt, et, gamma)
+        ok = _ros_step(arr, par, geometric, predict, hs, us, es, y, yn, err, fs, sq, sv, wk, at,
+                       ct, mt, et, gamma)
         info[0] += ns
         en = err_norm(arr, y, yn, err, atol, rtol) if ok else np.inf
         if not np.isfinite(en) or en > 1.0:

@@ -2,7 +2,9 @@
 
 Per step: forward dynamics, the tension stiffness (joint forces), one factorisation of the
 operator and one (implicit Euler) or two (ROS2) stage solves, then the compiled check
-(:func:`cable_sim.core.kernel.checks.check_packed`).
+(:func:`cable_sim.core.kernel.checks.check_packed`). The scratch of all of them is allocated
+once per run (:func:`factor_workspace`), and the links' cos/sin of the forward dynamics at the
+factorisation's state serve the joint forces and the operator too.
 
 Integrate layer: imports numba, numpy, :mod:`cable_sim.core.kernel` (forward, joint_forces,
 checks) and the sibling :mod:`cable_sim.integrate.implicit.operator`.
@@ -14,30 +16,49 @@ import numba as nb
 import numpy as np
 
 from cable_sim.core.kernel.checks import STATUS_OK, STATUS_SINGULAR, check_packed
-from cable_sim.core.kernel.forward import fd_packed
-from cable_sim.core.kernel.joint_forces import joint_forces_packed
+from cable_sim.core.kernel.forward import fd_packed_ws, fd_trig, fd_workspace
+from cable_sim.core.kernel.joint_forces import jf_workspace, joint_forces_packed_ws
 from cable_sim.integrate.implicit.operator import (
     _NS,
     _NW,
+    _W_COS,
+    _W_SIN,
     _dk_product,
     _kgeo_from_forces,
-    _op_factor,
+    _op_factor_trig,
     _op_solve,
 )
 
 
+@nb.njit(cache=True)
+def factor_workspace(n: int) -> tuple:
+    """Scratch of :func:`_factor_at` for n links, allocated once per compiled run: the forward
+    dynamics' (``fw``), the joint forces' (``jw``) and their output ``F``, the tension
+    stiffness ``kgeo`` and the operator's factorisation ``W, S, X``. No entry is read before
+    it is written in the same step (a reused workspace carries nothing over)."""
+    return (fd_workspace(n), jf_workspace(n), np.empty((n + 1, 2)), np.zeros(n),
+            np.zeros((_NW, n)), np.zeros(_NS), np.zeros((2, n + 1)))
+
+
 @nb.njit(cache=True, inline="always")
 def _factor_at(arr: np.ndarray, par: np.ndarray, geometric: bool, hg: float, q: np.ndarray,
-               v: np.ndarray, a1: np.ndarray, lam: np.ndarray, kgeo: np.ndarray, W: np.ndarray,
-               S: np.ndarray, X: np.ndarray, h: float) -> bool:
-    """Factor the operator at (q, v) (seabed contact over the step h, see
+               v: np.ndarray, a1: np.ndarray, lam: np.ndarray, vf: np.ndarray, fw: np.ndarray,
+               jw: np.ndarray, F: np.ndarray, kgeo: np.ndarray, W: np.ndarray, S: np.ndarray,
+               X: np.ndarray, h: float) -> bool:
+    """Factor the operator at (q, vf) (seabed contact over the step h, see
     :func:`cable_sim.integrate.implicit.operator._op_factor`); with ``geometric`` the tension
-    stiffness from the joint forces at the accelerations ``a1`` and anchor reaction ``lam``
-    first."""
+    stiffness from the joint forces at (q, v), the accelerations ``a1`` and anchor reaction
+    ``lam`` first. ``fw`` is the workspace of the forward dynamics just evaluated at q: its
+    links' cos/sin serve the joint forces, the tension stiffness and the operator."""
+    n = arr.shape[1]
+    cth, sth = fd_trig(fw, n)
     if geometric:
-        F = joint_forces_packed(arr, par, lam[0], lam[1], q, v, a1)
-        _kgeo_from_forces(arr, q, F, kgeo)
-    return _op_factor(arr, par, q, v, hg, kgeo, W, S, X, h)
+        joint_forces_packed_ws(arr, par, lam[0], lam[1], q, v, a1, cth, sth, jw, F)
+        _kgeo_from_forces(arr, cth, sth, F, kgeo)
+    for i in range(n):
+        W[_W_COS, i] = cth[i]
+        W[_W_SIN, i] = sth[i]
+    return _op_factor_trig(arr, par, q, vf, hg, kgeo, W, S, X, h)
 
 
 @nb.njit(cache=True, inline="always")
@@ -64,10 +85,7 @@ def _implicit_run(arr: np.ndarray, par: np.ndarray, scheme: int, gamma: float, g
     """
     n = arr.shape[1]
     n1 = n + 1
-    W = np.zeros((_NW, n))
-    S = np.zeros(_NS)
-    X = np.zeros((2, n1))
-    kgeo = np.zeros(n)
+    fw, jw, F, kgeo, W, S, X = factor_workspace(n)
     a1 = np.empty(n1)
     a2 = np.empty(n1)
     lam = np.empty(2)
@@ -88,10 +106,10 @@ def _implicit_run(arr: np.ndarray, par: np.ndarray, scheme: int, gamma: float, g
         info[1] = k
         q = y[:n1]
         v = y[n1:]
-        if not fd_packed(arr, par, u[k, 0], eta[k, 0], q, v, a1, lam):
+        if not fd_packed_ws(arr, par, u[k, 0], eta[k, 0], q, v, a1, lam, fw):
             return STATUS_SINGULAR
         info[0] += 1
-        if not _factor_at(arr, par, geometric, hg, q, v, a1, lam, kgeo, W, S, X, h):
+        if not _factor_at(arr, par, geometric, hg, q, v, a1, lam, v, fw, jw, F, kgeo, W, S, X, h):
             return STATUS_SINGULAR
         for j in range(n1):
             rk[j] = v[j] + hg * a1[j]
@@ -105,7 +123,7 @@ def _implicit_run(arr: np.ndarray, par: np.ndarray, scheme: int, gamma: float, g
                 k1q[j] = v[j] + hg * k1v[j]
                 q2[j] = q[j] + h * k1q[j]
                 v2[j] = v[j] + h * k1v[j]
-            if not fd_packed(arr, par, u[k, last], eta[k, last], q2, v2, a2, lam):
+            if not fd_packed_ws(arr, par, u[k, last], eta[k, last], q2, v2, a2, lam, fw):
                 return STATUS_SINGULAR
             info[0] += 1
             for j in range(n1):
