@@ -46,8 +46,19 @@ _SEQUENCE_MASK = 0xFFFF_FFFF
 _BIG_ENDIAN = sys.byteorder == "big"
 
 
+#: zstd level of the chunks: level 1 compresses recordings (floats, frame names) as well as the
+#: default level 3 (ratio 3.6 on a node recording at n = 80) at 1.5 times its speed.
+ZSTD_LEVEL = 1
+
+
 def compressor(kind: str) -> tuple[str, Callable[[bytes], bytes] | None]:
     """The Chunk record's ``compression`` name and the function that compresses chunk records.
+
+    Compressed chunks carry their integrity check in the compressed frame (zstd: xxhash64
+    content checksum, lz4: xxhash32 content checksum; verified by every decompressor), so their
+    Chunk record leaves ``uncompressed_crc`` 0 ("not computed", as the MCAP specification
+    allows) instead of spending a CRC-32 pass over the uncompressed bytes; uncompressed chunks
+    get the CRC-32.
 
     Parameters
     ----------
@@ -64,11 +75,14 @@ def compressor(kind: str) -> tuple[str, Callable[[bytes], bytes] | None]:
     if kind == "zstd":
         import zstandard
 
-        return "zstd", zstandard.ZstdCompressor(level=3).compress
+        return "zstd", zstandard.ZstdCompressor(level=ZSTD_LEVEL, write_checksum=True).compress
     if kind == "lz4":
         import lz4.frame
 
-        return "lz4", lz4.frame.compress
+        def lz4_compress(data: bytes) -> bytes:
+            return lz4.frame.compress(data, content_checksum=True)
+
+        return "lz4", lz4_compress
     if kind in ("none", ""):
         return "", None
     raise ValueError(f"compression={kind!r}: allowed 'zstd', 'lz4', 'none'")
@@ -191,8 +205,10 @@ class ChunkBuilder:
         if not self.messages:
             return None
         raw = self.buf  # replaced by a new buffer below: no copy needed
-        crc = zlib.crc32(raw)
-        stored = raw if self._compress is None else self._compress(raw)
+        if self._compress is None:
+            stored, crc = raw, zlib.crc32(raw)
+        else:  # the compressed frame carries its own content checksum (see compressor)
+            stored, crc = self._compress(raw), 0
         name = self._name.encode()
         body_len = 8 + 8 + 8 + 4 + 4 + len(name) + 8 + len(stored)
         head = (_CHUNK_HEAD.pack(OP_CHUNK, body_len, self.start, self.end, len(raw), crc)
