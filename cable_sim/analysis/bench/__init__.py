@@ -36,9 +36,11 @@ Definitions
   scheme at twice that step divided by 3 (order 2), reported in the CSV (``ref_err_est``).
 - *cost*: wall time of the time stepping per simulated second; RTF = 1 / cost. A scheme with a
   compiled whole-interval stepper (kernel ``fast``) is timed as one compiled call per 0.5 s
-  output interval with its inputs sampled beforehand (``wall``); the Python sampling of those
-  inputs, which :meth:`cable_sim.integrate.base.Integrator.advance` also does, is timed separately
-  (``wall_inputs``; ``rtf_incl_inputs`` includes it). Other schemes are timed around
+  output interval with its inputs sampled beforehand (``wall``); the sampling of those inputs
+  (:meth:`cable_sim.integrate.base.Integrator._sample_inputs`: compiled when the scene's inputs
+  have an input program) and the arming of the physical checks, which
+  :meth:`cable_sim.integrate.base.Integrator.advance` also does, are timed separately
+  (``wall_inputs``; ``rtf_incl_inputs`` includes them). Other schemes are timed around
   ``advance`` (fixed step, no compiled path) or around one ``solve_ivp`` call (adaptive, Python
   right-hand side). Outputs are computed outside the timed region.
 - *discretisation error in n*: fairlead tension and tip (last joint) position of each n's

@@ -2,7 +2,7 @@
 
 :func:`simulate` returns a :class:`Run` (joint positions and fairlead tension every
 :data:`~.settings.SAMPLE` s, wall times, status); :func:`compiled_stepper` times a compiled
-scheme's whole-interval stepper apart from its Python input sampling; :func:`error` is the
+scheme's whole-interval stepper apart from its input sampling; :func:`error` is the
 work-precision error against a reference run. Also what is available at run time
 (:func:`pick_kernel`, :func:`available_integrators`).
 
@@ -120,32 +120,24 @@ def compiled_stepper(integ) -> Callable | None:
     """``advance(t0, y, t1) -> (y1, wall_stepping, wall_inputs)`` through the integrator's
     compiled whole-interval stepper, or None when it has none (dense kernel, adaptive scheme).
 
-    Does what :meth:`Integrator.advance` does on the compiled path (same steps, same input
-    sampling times, same checks and errors), but samples the inputs and arms the physical checks
-    before starting the clock of the compiled call, so that the two costs are measured apart.
+    Does what :meth:`Integrator.advance` does on the compiled path (same steps, the same input
+    sampling, :meth:`Integrator._sample_inputs`: compiled when the scene's inputs have an input
+    program, same checks and errors), but samples the inputs and arms the physical checks before
+    starting the clock of the compiled call, so that the two costs are measured apart.
     """
     if not (getattr(integ, "compiled", False) and hasattr(integ, "_fast_kernel")
             and hasattr(integ, "_fast_model") and getattr(integ, "_fast_offsets", ())):
         return None
     arr, par, chk = integ._fast_model()
-    offs = tuple(integ._fast_offsets)
-    f = integ.system.input_at
 
     def advance(t0: float, y: np.ndarray, t1: float) -> tuple[np.ndarray, float, float]:
         ns = max(1, int(np.ceil((t1 - t0) / integ.h - 1e-9)))
         h = (t1 - t0) / ns
         w0 = time.perf_counter()
-        oh = [o * h for o in offs]
-        if ns == 1:
-            ins = [f(t0 + o) for o in oh]
-        else:
-            tk = t0 + np.arange(ns, dtype=float) * h
-            ins = [f(float(tt) + o) for tt in tk for o in oh]
-        u = np.array([i.heave_force for i in ins]).reshape(ns, len(offs))
-        eta = np.array([i.wave_elevation for i in ins]).reshape(ns, len(offs))
+        u, eta, u_max, eta_max = integ._sample_inputs(t0, h, ns)
         yc = np.array(y, dtype=float, copy=True)
         info = np.zeros(4)
-        integ.arm_checks(yc, h, ns, u, eta, chk)  # the physical blow-up checks, as advance()
+        integ.arm_checks(yc, h, ns, u, eta, chk, (u_max, eta_max))  # as advance()
         w1 = time.perf_counter()
         try:
             status = integ._fast_kernel(arr, par, float(h), u, eta, yc, chk, info)

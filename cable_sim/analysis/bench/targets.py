@@ -63,7 +63,7 @@ def _rtf_target(wp: list[dict], scene: str, n: int, goal: float, what: str) -> d
         return _row(target, float("nan"), f">= {goal:g}", f"n={n} not run, or no run within 1 cm")
     full = b["duration"] >= FREE_FALL_FULL - 1e-9
     detail = (f"{b['integrator']} {_setting(b)}, error {b['error_m']:.3g} m over {b['duration']:g} s "
-              f"vs {b['reference']}; RTF incl. Python input sampling {b['rtf_incl_inputs']:.4g}")
+              f"vs {b['reference']}; RTF incl. input sampling {b['rtf_incl_inputs']:.4g}")
     if not full:
         detail += f"; only {b['duration']:g} s simulated (target is over 31 s: run --full)"
     return _row(target, b["rtf"], f">= {goal:g}", detail, full)
