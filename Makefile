@@ -53,10 +53,14 @@ test: $(PKG_STAMP)
 lint: $(PKG_STAMP)
 	$(VENV)/bin/ruff check cable_sim test launch
 
-# Speed against error (optional MuJoCo and MoorDyn peers: installs the bench extra).
+# Speed against error, issue 13's targets in one invocation (optional MuJoCo and MoorDyn peers:
+# installs the bench extra; about 25 min on 2 cores). ARGS adds to it, e.g. ARGS="--resume CSV".
+BENCH_ARGS ?= --full --n 40 80 160 320 640 2000 --large-n-from 640 \
+	--large-n-integrators rk4 rosenbrock2 ros34pw2 ros34pw2_adaptive --mujoco-n 80 \
+	--out results/bench --cache results/bench/cache
 bench: $(PKG_STAMP)
 	$(PY) -m pip install -q mujoco==4.0.0 moordyn==2.7.2
-	$(VENV)/bin/cable_sim_bench $(ARGS)
+	OPENBLAS_NUM_THREADS=1 $(VENV)/bin/cable_sim_bench $(BENCH_ARGS) $(ARGS)
 
 # Node tick jitter in real time (results/realtime/).
 realtime-bench: $(PKG_STAMP)
