@@ -138,14 +138,16 @@ class CableSimNode(Node):
 
     def _log_startup(self) -> None:
         m, sim = self.sim.model, self.sim
-        rates = "/".join(f"{self.get_parameter(r).value:g}" for r in (
-            "joint_state_rate", "marker_rate", "tension_rate", "diagnostics_rate"))
+        rate = {r: self.get_parameter(r).value for r in (
+            "joint_state_rate", "marker_rate", "tension_rate", "line_tension_rate", "diagnostics_rate")}
+        rate["line_tension_rate"] = rate["line_tension_rate"] or rate["tension_rate"]  # 0: with tensions
+        rates = "/".join(f"{v:g}" for v in rate.values())
         rec = f"recording to {self.recorder.path}" if self.recorder else "not recording"
         duration = self.run.duration
         line = (
             f"simulating scene '{sim.scene.name}': n = {m.n} links, end = {m.params.end_condition}, "
             f"terms = [{', '.join(m.terms())}], integrator = {sim.integrator.name}, step = {self.h:g} s, "
-            f"kernel = {sim.kernel}, clock = {self.clock_mode}, rates js/markers/tension/diag = "
+            f"kernel = {sim.kernel}, clock = {self.clock_mode}, rates js/markers/tension/line_tension/diag = "
             f"{rates} Hz, duration = {duration if duration > 0 else 'unbounded'}, {rec}"
         )
         if sim.choice is not None:

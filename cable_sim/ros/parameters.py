@@ -64,6 +64,9 @@ NODE_PARAMETERS: dict[str, NodeParam] = {
     "joint_state_rate": NodeParam(50.0, "JointState publication rate [Hz] (sim time)", (0.1, 1000.0)),
     "marker_rate": NodeParam(10.0, "MarkerArray publication rate [Hz] (sim time)", (0.1, 1000.0)),
     "tension_rate": NodeParam(20.0, "fairlead/anchor force and line tension rate [Hz]", (0.1, 1000.0)),
+    "line_tension_rate": NodeParam(0.0, "line_tension (n link tensions) rate [Hz] (sim time), for a long "
+                                   "line slower than the scalar forces; 0: with tension_rate",
+                                   (0.0, 1000.0)),
     "diagnostics_rate": NodeParam(1.0, "diagnostics rate [Hz] (wall time)", (0.05, 100.0)),
     "input_timeout": NodeParam(2.0, "an input older than this [s] falls back to zero (not lockstep)",
                                (0.01, 3600.0)),

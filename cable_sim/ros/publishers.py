@@ -129,13 +129,16 @@ class NodeOutputs:
         self.rates_changed()
 
     def rates_changed(self) -> None:
-        """Steps between joint states, markers and tensions from the rate parameters."""
+        """Steps between joint states, markers, tensions and line tensions from the rate
+        parameters (``line_tension_rate`` 0: with the tensions)."""
         def every(name: str) -> int:
             return max(1, int(round(1.0 / (self.node.get_parameter(name).value * self.node.h))))
 
         self.every_js = every("joint_state_rate")
         self.every_mk = every("marker_rate")
         self.every_tn = every("tension_rate")
+        lt_rate = self.node.get_parameter("line_tension_rate").value
+        self.every_lt = self.every_tn if lt_rate == 0.0 else every("line_tension_rate")
 
     def stamp(self) -> int:
         """Simulated time of the current step [ns]."""
@@ -246,8 +249,11 @@ class NodeOutputs:
             self._joint_states(out, self.stamp())
 
     def publish_outputs(self, js: bool = False, mk: bool = False, tn: bool = False,
-                        force_all: bool = False) -> None:
-        """Publish the chosen outputs (joint states, markers, tensions) at the current step."""
+                        lt: bool | None = None, force_all: bool = False) -> None:
+        """Publish the chosen outputs at the current step: joint states, markers, tensions (the
+        fairlead/anchor wrenches and seabed_contact) and line tensions (``lt``; None: with ``tn``)."""
+        if lt is None:
+            lt = tn
         node = self.node
         out = self.current()
         if out is None:
@@ -271,13 +277,16 @@ class NodeOutputs:
                 data = enc.markers(values, stamp)
             profile.add("messages", perf_counter() - w)
             self.publish_bytes("cable_markers", data, encoders.MARKER_ARRAY, stamp)
-        if tn or force_all:
+        if tn or lt or force_all:
             w = perf_counter()
-            msgs = [("fairlead_tension", enc.wrench(-out.fairlead_force, stamp), encoders.WRENCH)]
-            if "anchor_force" in self.pub:
-                msgs.append(("anchor_force", enc.wrench(-out.anchor_force, stamp), encoders.WRENCH))
-            msgs.append(("line_tension", enc.line_tension(out.axial_tension), encoders.FLOAT_ARRAY))
-            if seabed is not None:
+            msgs = []
+            if tn or force_all:
+                msgs.append(("fairlead_tension", enc.wrench(-out.fairlead_force, stamp), encoders.WRENCH))
+                if "anchor_force" in self.pub:
+                    msgs.append(("anchor_force", enc.wrench(-out.anchor_force, stamp), encoders.WRENCH))
+            if lt or force_all:
+                msgs.append(("line_tension", enc.line_tension(out.axial_tension), encoders.FLOAT_ARRAY))
+            if (tn or force_all) and seabed is not None:
                 msgs.append(("seabed_contact", enc.seabed_contact(seabed), encoders.FLOAT_ARRAY))
             profile.add("messages", perf_counter() - w)
             for name, data, type_name in msgs:

@@ -64,7 +64,7 @@ class RunControl:
         self.steps_done += 1
         k, o = sim.k, node.outputs
         due = (node.clock_mode != "lockstep" and k % o.every_js == 0, k % o.every_mk == 0,
-               k % o.every_tn == 0)
+               k % o.every_tn == 0, k % o.every_lt == 0)
         if any(due):
             o.publish_outputs(*due)
         if self.duration > 0 and sim.t >= self.duration - 1e-9:
