@@ -128,7 +128,7 @@ def realtime_target(path: Path) -> dict:
     r = rows[-1]
     secs = float(r["seconds"])
     detail = (f"from {path} (separate command: python -m cable_sim.analysis.realtime_bench --seconds 60 "
-              f"--record --n-links 2000 --integrator rosenbrock2 --step 0.01 --tag n2000): {r['scene']}, "
+              f"--record --n-links 2000 --tag n2000, the default scene as shipped): {r['scene']}, "
               f"{r['integrator']} h={float(r['step_s']):g} s, {secs:g} s, {r['ticks']} ticks, RTF "
               f"{float(r['real_time_factor']):.4g}, longest tick {float(r['longest_tick_ms']):.3g} ms; "
               "not measured in this run")
