@@ -142,21 +142,29 @@ def woodbury_load(m: np.ndarray, mc: float, constrained: bool, locked: bool) -> 
 def link_frame(axx: float, axz: float, azz: float, c: float, s: float) -> tuple[float, float, float]:
     """``t^T A t, t^T A e, e^T A e`` of a symmetric world-frame A (xx, xz, zz).
 
-    Written so that an isotropic A (the load, ``m_c I``) gives ``t^T A e = 0`` exactly.
+    Written so that an isotropic A (the load, ``m_c I``) gives ``t^T A e = 0`` exactly, and
+    so that A enters each product once (the trig products do not depend on the recursion:
+    one multiply of the sweep's chain instead of two).
     """
+    cc = c * c
+    ss = s * s
     cs = c * s
-    x = axx * c * c + 2.0 * axz * cs + azz * s * s
-    y = (axx - azz) * cs + axz * (s * s - c * c)
-    z = axx * s * s - 2.0 * axz * cs + azz * c * c
+    x = axx * cc + axz * (2.0 * cs) + azz * ss
+    y = (axx - azz) * cs + axz * (ss - cc)
+    z = axx * ss - axz * (2.0 * cs) + azz * cc
     return x, y, z
 
 
 @nb.njit(cache=True, inline="always")
 def to_world(a_tt: float, a_te: float, a_ee: float, c: float, s: float) -> tuple[float, float, float]:
-    """World-frame (xx, xz, zz) of ``a_tt t t^T + a_te (t e^T + e t^T) + a_ee e e^T``."""
-    axx = a_tt * c * c + 2.0 * a_te * c * s + a_ee * s * s
-    axz = a_tt * c * s + a_te * (s * s - c * c) - a_ee * s * c
-    azz = a_tt * s * s - 2.0 * a_te * s * c + a_ee * c * c
+    """World-frame (xx, xz, zz) of ``a_tt t t^T + a_te (t e^T + e t^T) + a_ee e e^T`` (the
+    trig products formed first, as in :func:`link_frame`)."""
+    cc = c * c
+    ss = s * s
+    cs = c * s
+    axx = a_tt * cc + a_te * (2.0 * cs) + a_ee * ss
+    axz = a_tt * cs + a_te * (ss - cc) - a_ee * cs
+    azz = a_tt * ss - a_te * (2.0 * cs) + a_ee * cc
     return axx, axz, azz
 
 
@@ -168,10 +176,14 @@ def articulated_inertia(
     (xx, xz, zz); mn = me = m without added mass (then A' = m I + A - h h^T / D).
 
     Assembled in the link frame (t, e) to avoid cancellation in the t direction, then rotated.
+    ``a_tt = mn (x/3 + mn/12) / xp`` is written ``(x + mn/4) (mn/3) / xp`` and the three
+    divisions by xp as one reciprocal: one division on the sweep's chain instead of two in
+    series.
     """
-    a_tt = mn * (x / 3.0 + mn / 12.0) / xp
-    a_te = -y * (mn / 6.0) / xp
-    a_ee = me + z - y * y / xp
+    ixp = 1.0 / xp
+    a_tt = (x + 0.25 * mn) * (mn / 3.0) * ixp
+    a_te = -y * (mn / 6.0) * ixp
+    a_ee = me + z - y * y * ixp
     return to_world(a_tt, a_te, a_ee, c, s)
 
 
@@ -182,26 +194,30 @@ def articulated_inertia(
 def bias_step(
     bx: float, bz: float, r_applied: float, fgx: float, fgz: float, li: float, mi: float,
     c: float, s: float, w2: float, y: float, aex: float, aez: float, h_x: float, h_z: float,
-    d: float,
+    inv_d: float,
 ) -> tuple[float, float, float]:
-    """One link of the applied-force right-hand side: ``R_i`` and the new bias ``b_i``.
+    """One link of the applied-force right-hand side: ``R_i`` and the new bias ``b_i``
+    (``inv_d = 1 / D_i``).
 
     ``r_applied = -tau_i + tau_(i+1) + C_i + (l/2) t.G_i`` (couples on the link).
     """
     r0 = r_applied + li * li * w2 * y - li * (c * bx + s * bz)
-    bx += -fgx - w2 * (0.5 * mi * li * s + li * aex) + h_x * r0 / d
-    bz += -fgz - w2 * (-0.5 * mi * li * c + li * aez) + h_z * r0 / d
+    rd = r0 * inv_d
+    bx += -fgx - w2 * (0.5 * mi * li * s + li * aex) + h_x * rd
+    bz += -fgz - w2 * (-0.5 * mi * li * c + li * aez) + h_z * rd
     return r0, bx, bz
 
 
 @nb.njit(cache=True, inline="always")
 def unit_force_step(
-    bx: float, bz: float, li: float, c: float, s: float, h_x: float, h_z: float, d: float
+    bx: float, bz: float, li: float, c: float, s: float, h_x: float, h_z: float, inv_d: float
 ) -> tuple[float, float, float]:
-    """One link of a unit end-force right-hand side (no velocity, no gravity), flushed at TINY."""
+    """One link of a unit end-force right-hand side (no velocity, no gravity), flushed at TINY
+    (``inv_d = 1 / D_i``)."""
     rk = -li * (c * bx + s * bz)
-    bx += h_x * rk / d
-    bz += h_z * rk / d
+    rd = rk * inv_d
+    bx += h_x * rd
+    bz += h_z * rd
     if abs(bx) + abs(bz) < TINY:
         bx = 0.0
         bz = 0.0
@@ -248,15 +264,16 @@ def inward_sweep(
         dd[i] = d
         hx[i] = h_x
         hz[i] = h_z
+        inv_d = 1.0 / d  # from the inertia recursion: off the right-hand sides' chains
         if bias:
             ra = -tau[i] + tau[i + 1] + cpl[i] + 0.5 * li * (c * fgx[i] + s * fgz[i])
             w2 = qd[i + 1] * qd[i + 1]
             rr[0, i], bx[0], bz[0] = bias_step(
                 bx[0], bz[0], ra, fgx[i], fgz[i], li, me[i], c, s, w2, y,
-                axx * s - axz * c, axz * s - azz * c, h_x, h_z, d,
+                axx * s - axz * c, axz * s - azz * c, h_x, h_z, inv_d,
             )
         for k in range(1, nrhs):
-            rr[k, i], bx[k], bz[k] = unit_force_step(bx[k], bz[k], li, c, s, h_x, h_z, d)
+            rr[k, i], bx[k], bz[k] = unit_force_step(bx[k], bz[k], li, c, s, h_x, h_z, inv_d)
         axx, axz, azz = articulated_inertia(mi, me[i], x, y, z, xp, c, s)
     return azz
 
@@ -283,10 +300,11 @@ def outward_sweep(
     apz = zdd
     for i in range(n):
         li = l[i]
+        inv = 1.0 / dd[i]  # dd is known ahead: a multiply, not a division, on the chain
         if coupled:
-            alpha = (beta[i] * ap - hx[i] * apx - hz[i] * apz + rr[i]) / dd[i]
+            alpha = (beta[i] * ap - hx[i] * apx - hz[i] * apz + rr[i]) * inv
         else:
-            alpha = (rr[i] - hx[i] * apx - hz[i] * apz) / dd[i]
+            alpha = (rr[i] - hx[i] * apx - hz[i] * apz) * inv
         sol[i + 1] = alpha
         ap = alpha
         if velocity:

@@ -236,25 +236,26 @@ def _op_inward(arr: np.ndarray, W: np.ndarray, mload: float, hg: float) -> float
             qm = q0 * (1.0 - 0.5 * (za + zb_) / li)  # q0 - q1
             qq = ks * _contact_moments(1.0 - zb_ / li, 1.0 - za / li)[2] * li  # q0 + q2 - 2 q1
         cw = cc * il2
-        ww = wt / li
+        ww = wt * (1.0 / li)  # the reciprocal off the recursion's chain
         dn = ip + 0.25 * mt + q2 + cw + 2.0 * ww + p_tt  # D / l^2
         d = li * li * dn
+        inv_d = 1.0 / d  # one division for the five by D below
         ut = li * (0.5 * mt + q1 + p_tt) + wt
         ue = we + li * r_te - s1 * s * c
         m0 = mt + q0
         a_tt = (m0 * ip + mt * qc + qv + m0 * cw + 2.0 * ww * (0.5 * mt + qm)
                 + p_tt * (ip + 0.25 * mt + qq) + (p_tt * cw - ww * ww)) / dn
-        axx, axz, azz = to_world(a_tt, r_te - mz * s * c - ut * ue / d,
-                                 me + mz * c * c + s_ee - ue * ue / d, c, s)
+        axx, axz, azz = to_world(a_tt, r_te - mz * s * c - ut * ue * inv_d,
+                                 me + mz * c * c + s_ee - ue * ue * inv_d, c, s)
         uxw, uzw = from_link_frame(ut, ue, c, s)
         W[_W_D, i] = d
         W[_W_UX, i] = uxw
         W[_W_UZ, i] = uzw
         # rotational coupling passed to the parent (zero without armature)
         dnb = li * li * (mi / 12.0 + rot[i] * il2 + 0.25 * mt + q2 + cw + 2.0 * ww + p_tt)
-        cc = bi * dnb / d
-        wx = bi * uxw / d
-        wz = bi * uzw / d
+        cc = bi * dnb * inv_d
+        wx = bi * uxw * inv_d
+        wz = bi * uzw * inv_d
     return azz
 
 
@@ -276,7 +277,7 @@ def _op_rhs_inward(l: np.ndarray, W: np.ndarray, rhs: np.ndarray, use_rhs: bool,
         if use_rhs:
             b -= rhs[i + 1]
         rr[i] = -b
-        r = b / dd[i]
+        r = b * (1.0 / dd[i])  # dd is known ahead: a multiply, not a division, on the chain
         bn = beta[i] * r
         bx -= uxa[i] * r
         bz -= uza[i] * r
