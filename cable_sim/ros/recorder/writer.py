@@ -267,20 +267,26 @@ class RunRecorder:
         last_flush = time.monotonic()
         q = self._queue
         while True:
-            if q:
-                self._drain(self._batch)
-            elif self._closing:
-                break
-            else:
-                time.sleep(self._poll)
-            now = time.monotonic()
-            if now - last_flush >= self.flush_period:
-                if self._dirty:
-                    self._flush()
-                last_flush = now
+            try:
+                if q:
+                    self._drain(self._batch)
+                elif self._closing:
+                    break
+                else:
+                    time.sleep(self._poll)
+                now = time.monotonic()
+                if now - last_flush >= self.flush_period:
+                    if self._dirty:
+                        self._flush()
+                    last_flush = now
+            except Exception as exc:  # noqa: BLE001 - never let the writer thread die silently
+                self._error(f"recorder writer thread: {exc!r}")
         # final drain is done; flush what is left so a crash during finish() loses nothing
-        if self._dirty:
-            self._flush()
+        try:
+            if self._dirty:
+                self._flush()
+        except Exception as exc:  # noqa: BLE001
+            self._error(f"recorder writer thread: {exc!r}")
 
     def _drain(self, batch: int) -> None:
         """Add up to ``batch`` queued items to the open chunk (writer thread): the hot loop."""
@@ -314,6 +320,7 @@ class RunRecorder:
                 if full:
                     self._written += n
                     n = 0
+                    self._dirty = True  # written, not yet fsync'ed
                     self._close_chunk()
                     if self._failed:
                         self._drop_queued()
