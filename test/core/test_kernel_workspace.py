@@ -74,6 +74,8 @@ def test_reused_workspace_matches_fresh(n: int) -> None:
         cth, sth = fd_trig(ws, n)
         np.testing.assert_allclose(cth, np.cos(q[1:]), rtol=0, atol=1e-15)
         np.testing.assert_allclose(sth, np.sin(q[1:]), rtol=0, atol=1e-15)
+        # the allocating joint forces take numpy's (libm) cos/sin: give the workspace path those
         F0 = joint_forces_packed(arr, par, lam0[0], lam0[1], q, qd, qdd0)
-        joint_forces_packed_ws(arr, par, lam0[0], lam0[1], q, qd, qdd0, cth, sth, jw, out_ws)
+        joint_forces_packed_ws(arr, par, lam0[0], lam0[1], q, qd, qdd0, np.cos(q[1:]),
+                               np.sin(q[1:]), jw, out_ws)
         assert _close(out_ws, F0)

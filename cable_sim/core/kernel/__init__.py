@@ -2,11 +2,13 @@
 
 =================  ==========================================================================
 ``packing``        the model as plain arrays for numba (:func:`pack_arrays`), cached per model
+``trig``           cos and sin of the link angles, branch-free (vectorised loops)
 ``sweeps``         the shared articulated-body pieces: link kinematics and drag, the 2x2
                    articulated inertia, the inward and outward sweeps, the 2x2 end correction
                    (also used by :mod:`cable_sim.integrate.implicit.operator`)
 ``contact``        seabed contact per link, exact over its length (MODEL.md round-2 terms)
-``forward``        forward dynamics (:func:`forward_dynamics`, :func:`fd_packed`)
+``forward``        forward dynamics (:func:`forward_dynamics`, :func:`fd_packed`; the compiled
+                   runs: :func:`~cable_sim.core.kernel.forward.fd_packed_ws`, scratch reused)
 ``energy``         kinetic and potential energy
 ``joint_forces``   internal joint forces (Newton recursion from the end)
 ``anchor``         anchored end: constraint right-hand side, projection, drift, Schur matrix

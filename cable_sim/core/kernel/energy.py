@@ -1,7 +1,7 @@
 """Kinetic and potential energy of the chain in O(n) (compiled): link-centre velocities and
 spins, platform and load; heights for gravity, relative angles for the joint springs.
 
-Core layer, compiled kernel: imports numba, numpy, the kernel's ``sweeps`` and ``packing``
+Core layer, compiled kernel: imports numba, numpy, the kernel's ``sweeps``, ``trig`` and ``packing``
 and :mod:`cable_sim.core.model`.
 """
 
@@ -13,6 +13,7 @@ import numpy as np
 from cable_sim.core.kernel.contact import seabed_links_nb
 from cable_sim.core.kernel.packing import pack, vec
 from cable_sim.core.kernel.sweeps import centre_velocity, next_pin_velocity
+from cable_sim.core.kernel.trig import cos_sin
 from cable_sim.core.model import CableModel
 
 
@@ -32,8 +33,7 @@ def _energy_kernel(l: np.ndarray, m: np.ndarray, mw: np.ndarray, jk: np.ndarray,
     th_prev = 0.0
     for i in range(n):
         li = l[i]
-        c = np.cos(q[i + 1])
-        s = np.sin(q[i + 1])
+        c, s = cos_sin(q[i + 1])
         w = qd[i + 1]
         vcx, vcz = centre_velocity(vx, vz, li, c, s, w, 0.0)
         t_kin += 0.5 * m[i] * (vcx * vcx + vcz * vcz) + 0.5 * (m[i] * li * li / 12.0) * w * w

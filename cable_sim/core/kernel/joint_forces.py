@@ -15,7 +15,7 @@ import numpy as np
 
 from cable_sim.core.kernel.contact import seabed_links_nb
 from cable_sim.core.kernel.packing import pack, vec
-from cable_sim.core.kernel.sweeps import centre_velocity, link_drag, link_trig, next_pin_velocity
+from cable_sim.core.kernel.sweeps import centre_velocity, link_drag, link_trig_libm, next_pin_velocity
 from cable_sim.core.model import CableModel
 
 #: Rows of the joint-force workspace (:func:`jf_workspace`): link cos/sin, link-centre
@@ -123,10 +123,11 @@ def joint_forces_packed_ws(arr: np.ndarray, par: np.ndarray, lamx: float, lamz: 
 @nb.njit(cache=True)
 def joint_forces_packed(arr: np.ndarray, par: np.ndarray, lamx: float, lamz: float, q: np.ndarray,
                         qd: np.ndarray, qdd: np.ndarray) -> np.ndarray:
-    """:func:`_joint_forces_kernel` on the packed model (allocates; returns F (n+1, 2))."""
+    """:func:`_joint_forces_kernel` on the packed model (allocates; returns F (n+1, 2); the
+    links' cos/sin from the libm functions, as numpy's)."""
     n = arr.shape[1]
     ws = jf_workspace(n)
-    link_trig(q, ws[_J_COS, :n], ws[_J_SIN, :n])
+    link_trig_libm(q, ws[_J_COS, :n], ws[_J_SIN, :n])
     out = np.empty((n + 1, 2))
     joint_forces_packed_ws(arr, par, lamx, lamz, q, qd, qdd, ws[_J_COS, :n], ws[_J_SIN, :n], ws,
                            out)
@@ -167,7 +168,7 @@ def joint_forces(
     qv = vec(q, k, "q")
     ws = jf_workspace(model.n)
     cth, sth = ws[_J_COS, :model.n], ws[_J_SIN, :model.n]
-    link_trig(qv, cth, sth)
+    link_trig_libm(qv, cth, sth)
     out = np.empty((k, 2))
     _joint_forces_kernel(
         p[0], p[1], p[2], p[6], p[7], p[8], p[9], p[10], p[11], p[17], p[18], lamx, lamz,
