@@ -1,10 +1,11 @@
 """Lean MCAP chunk builder: the recorder's per-message work is one ``struct.pack`` and two appends.
 
-The writer thread of :class:`~cable_sim.ros.recorder.writer.RunRecorder` appends every message
-as an MCAP *Message* record (opcode 0x05) to one :class:`bytearray` and notes its ``(log_time,
-offset)`` in the channel's message index; when the chunk is closed (size limit or flush period)
-:meth:`ChunkBuilder.close` compresses the records once (zstd / lz4; both release the GIL) and
-packs the *Chunk* record (0x06) and one *MessageIndex* record (0x07) per channel. The mcap
+The writer thread of :class:`~cable_sim.ros.recorder.writer.RunRecorder` adds every message as
+an MCAP *Message* record (opcode 0x05): its packed head and its data (not copied) go to a list,
+its ``(log_time, offset)`` to the channel's message index; when the chunk is closed (size limit
+or flush period) :meth:`ChunkBuilder.close` joins the records (one copy), compresses them once
+(zstd / lz4; both release the GIL) and packs the *Chunk* record (0x06) and one *MessageIndex*
+record (0x07) per channel. The mcap
 package's ``Writer.add_message`` does the same through a dataclass per message and a
 ``BytesIO``-based builder, several microseconds of Python per message under the GIL (the time the
 simulation thread loses while recording).
@@ -159,17 +160,22 @@ class ChunkBuilder:
         Compression of the chunk records (see :func:`compressor`).
     """
 
-    __slots__ = ("buf", "channels", "messages", "start", "end", "chunk_size", "_name",
-                 "_compress")
+    __slots__ = ("parts", "size", "channels", "chunk_size", "_name", "_compress")
 
     def __init__(self, chunk_size: int = 1 << 20, compression: str = "zstd") -> None:
         self._name, self._compress = compressor(compression)
         self.chunk_size = int(chunk_size)
-        self.buf = bytearray()
+        #: Message records of the open chunk: head, data, head, data, ...
+        self.parts: list[bytes] = []
+        #: Bytes of the records in :attr:`parts`.
+        self.size = 0
+        #: Channels with messages in the open chunk, in order of their first message.
         self.channels: list[ChannelState] = []
-        self.messages = 0
-        self.start = 1 << 64
-        self.end = 0
+
+    @property
+    def messages(self) -> int:
+        """Messages in the open chunk."""
+        return sum(len(ch.entries) for ch in self.channels) // 2
 
     def add(self, ch: ChannelState, data: bytes, log_time: int, publish_time: int) -> bool:
         """Append one Message record; True when the chunk has reached ``chunk_size`` bytes.
@@ -177,47 +183,44 @@ class ChunkBuilder:
         Raises (and leaves the chunk unchanged) when a field does not fit its MCAP type
         (negative or >= 2**64 time) or ``data`` is not bytes-like.
         """
-        buf = self.buf
-        off = len(buf)
-        head = _MESSAGE_HEAD.pack(OP_MESSAGE, MESSAGE_BODY_HEAD + len(data), ch.id,
+        if data.__class__ is not bytes:
+            data = bytes(data)  # a snapshot of a mutable buffer; TypeError for a str
+        off = self.size
+        n = len(data)
+        head = _MESSAGE_HEAD.pack(OP_MESSAGE, MESSAGE_BODY_HEAD + n, ch.id,
                                   ch.count & _SEQUENCE_MASK, log_time, publish_time)
-        buf += head
-        try:
-            buf += data
-        except BaseException:
-            del buf[off:]
-            raise
+        parts = self.parts
+        parts.append(head)
+        parts.append(data)
         e = ch.entries
         if not e:
             self.channels.append(ch)
         e.append(log_time)
         e.append(off)
         ch.count += 1
-        self.messages += 1
-        if log_time < self.start:
-            self.start = log_time
-        if log_time > self.end:
-            self.end = log_time
-        return len(buf) >= self.chunk_size
+        self.size = off = off + _MESSAGE_HEAD.size + n
+        return off >= self.chunk_size
 
     def close(self) -> ClosedChunk | None:
         """Pack the Chunk and MessageIndex records and empty the builder (None if no message)."""
-        if not self.messages:
+        if not self.channels:
             return None
-        raw = self.buf  # replaced by a new buffer below: no copy needed
+        raw = b"".join(self.parts)
         if self._compress is None:
             stored, crc = raw, zlib.crc32(raw)
         else:  # the compressed frame carries its own content checksum (see compressor)
             stored, crc = self._compress(raw), 0
         name = self._name.encode()
         body_len = 8 + 8 + 8 + 4 + 4 + len(name) + 8 + len(stored)
-        head = (_CHUNK_HEAD.pack(OP_CHUNK, body_len, self.start, self.end, len(raw), crc)
-                + _U32.pack(len(name)) + name + _U64.pack(len(stored)))
         index = bytearray()
         offsets: dict[int, int] = {}
         counts: dict[int, int] = {}
+        start, end = 1 << 64, 0
         for ch in self.channels:
             e = ch.entries
+            times = e[0::2]
+            start = min(start, min(times))
+            end = max(end, max(times))
             if _BIG_ENDIAN:  # pragma: no cover - MCAP is little endian
                 e.byteswap()
             pairs = e.tobytes()
@@ -227,11 +230,13 @@ class ChunkBuilder:
                                               len(pairs))
             index += pairs
             ch.entries = array("Q")
+        head = (_CHUNK_HEAD.pack(OP_CHUNK, body_len, start, end, len(raw), crc)
+                + _U32.pack(len(name)) + name + _U64.pack(len(stored)))
         closed = ClosedChunk(
             chunk=[head, stored], chunk_length=9 + body_len, message_indexes=bytes(index),
-            message_index_offsets=offsets, channel_counts=counts, message_start_time=self.start,
-            message_end_time=self.end, compression=self._name, compressed_size=len(stored),
-            uncompressed_size=len(raw), messages=self.messages)
+            message_index_offsets=offsets, channel_counts=counts, message_start_time=start,
+            message_end_time=end, compression=self._name, compressed_size=len(stored),
+            uncompressed_size=len(raw), messages=sum(counts.values()))
         self.discard()
         return closed
 
@@ -240,9 +245,7 @@ class ChunkBuilder:
         chans = self.channels
         for ch in chans:
             ch.entries = array("Q")
-        self.buf = bytearray()
+        self.parts = []
+        self.size = 0
         self.channels = []
-        self.messages = 0
-        self.start = 1 << 64
-        self.end = 0
         return chans
