@@ -56,11 +56,3 @@ def sincos(x: float) -> tuple[float, float]:
     csign = -1.0 if (j == 2) | (j == 4) else 1.0
     return csign * cv, ssign * sv
 
-
-@nb.njit(cache=True, inline="always")
-def cos_sin(x: float) -> tuple[float, float]:
-    """``(cos x, sin x)`` for any x: :func:`sincos`, or the libm functions beyond :data:`LARGE`
-    (a branch: for loops that do not vectorise anyway)."""
-    if abs(x) > LARGE:
-        return np.cos(x), np.sin(x)
-    return sincos(x)
