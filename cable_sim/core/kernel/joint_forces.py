@@ -14,7 +14,7 @@ import numba as nb
 import numpy as np
 
 from cable_sim.core.kernel.contact import seabed_links_nb
-from cable_sim.core.kernel.packing import pack, vec
+from cable_sim.core.kernel.packing import pack_arrays, vec
 from cable_sim.core.kernel.sweeps import centre_velocity, link_drag, link_trig_libm, next_pin_velocity
 from cable_sim.core.model import CableModel
 
@@ -33,16 +33,18 @@ def jf_workspace(n: int) -> np.ndarray:
 
 
 @nb.njit(cache=True)
-def _joint_forces_kernel(
-    l: np.ndarray, m: np.ndarray, mw: np.ndarray, cn: np.ndarray, ct: np.ndarray, current: float,
-    drag: int, mc: float, mcw: float, g: float, constrained: bool, lamx: float, lamz: float,
-    q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, seabed: bool, zb: float, kb: np.ndarray,
-    cb: np.ndarray, mua: np.ndarray, mut: np.ndarray, vc: float, mn: np.ndarray, me: np.ndarray,
-    cth: np.ndarray, sth: np.ndarray, ws: np.ndarray, out: np.ndarray,
-) -> None:
-    """Joint forces by the Newton recursion from the end (see ``dynamics.joint_forces``) into
-    ``out`` (n+1, 2); ``cth, sth``: cos/sin of the links' angles ``q[1:]``; ``ws``: scratch
-    (:func:`jf_workspace`)."""
+def joint_forces_packed_ws(arr: np.ndarray, par: np.ndarray, lamx: float, lamz: float,
+                           q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, cth: np.ndarray,
+                           sth: np.ndarray, ws: np.ndarray, out: np.ndarray) -> None:
+    """Joint forces by the Newton recursion from the end (see ``dynamics.joint_forces``) on the
+    packed model into ``out`` (n+1, 2); ``cth, sth``: cos/sin of the links' angles ``q[1:]``
+    (e.g. those the forward dynamics just computed); ``ws``: the caller's scratch
+    (:func:`jf_workspace`). The model is unpacked here (a compiled call costs per array
+    argument)."""
+    l, m, mw, cn, ct = arr[0], arr[1], arr[2], arr[6], arr[7]
+    kb, cb, mua, mut, mn, me = arr[8], arr[9], arr[10], arr[11], arr[12], arr[13]
+    current, drag, mc, mcw, g = par[0], int(par[1]), par[2], par[3], par[9]
+    constrained, seabed, zb, vc = par[10] != 0.0, par[17] != 0.0, par[18], par[19]
     n = l.shape[0]
     acx = ws[_J_ACX]  # link-centre accelerations
     acz = ws[_J_ACZ]
@@ -107,24 +109,10 @@ def _joint_forces_kernel(
 
 
 @nb.njit(cache=True)
-def joint_forces_packed_ws(arr: np.ndarray, par: np.ndarray, lamx: float, lamz: float,
-                           q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, cth: np.ndarray,
-                           sth: np.ndarray, ws: np.ndarray, out: np.ndarray) -> None:
-    """:func:`_joint_forces_kernel` on the packed model into ``out`` (n+1, 2), with the links'
-    cos/sin ``cth, sth`` of ``q`` (e.g. those the forward dynamics just computed) and the
-    caller's workspace ``ws`` (:func:`jf_workspace`)."""
-    _joint_forces_kernel(
-        arr[0], arr[1], arr[2], arr[6], arr[7], par[0], int(par[1]), par[2], par[3], par[9],
-        par[10] != 0.0, lamx, lamz, q, qd, qdd, par[17] != 0.0, par[18], arr[8], arr[9], arr[10],
-        arr[11], par[19], arr[12], arr[13], cth, sth, ws, out,
-    )
-
-
-@nb.njit(cache=True)
 def joint_forces_packed(arr: np.ndarray, par: np.ndarray, lamx: float, lamz: float, q: np.ndarray,
                         qd: np.ndarray, qdd: np.ndarray) -> np.ndarray:
-    """:func:`_joint_forces_kernel` on the packed model (allocates; returns F (n+1, 2); the
-    links' cos/sin from the libm functions, as numpy's)."""
+    """:func:`joint_forces_packed_ws` with scratch of its own (allocates; returns F (n+1, 2);
+    the links' cos/sin from the libm functions, as numpy's)."""
     n = arr.shape[1]
     ws = jf_workspace(n)
     link_trig_libm(q, ws[_J_COS, :n], ws[_J_SIN, :n])
@@ -162,16 +150,8 @@ def joint_forces(
         load, or the anchor: ``-anchor_force``).
     """
     k = model.n + 1
-    p = pack(model)
+    arr, par = pack_arrays(model)
     lamx, lamz = (0.0, 0.0) if anchor_force is None else (float(anchor_force[0]),
                                                           float(anchor_force[1]))
-    qv = vec(q, k, "q")
-    ws = jf_workspace(model.n)
-    cth, sth = ws[_J_COS, :model.n], ws[_J_SIN, :model.n]
-    link_trig_libm(qv, cth, sth)
-    out = np.empty((k, 2))
-    _joint_forces_kernel(
-        p[0], p[1], p[2], p[6], p[7], p[8], p[9], p[10], p[11], p[17], p[18], lamx, lamz,
-        qv, vec(qd, k, "qd"), vec(qdd, k, "qdd"), *p[23:32], cth, sth, ws, out,
-    )
-    return out
+    return joint_forces_packed(arr, par, lamx, lamz, vec(q, k, "q"), vec(qd, k, "qd"),
+                               vec(qdd, k, "qdd"))

@@ -1,9 +1,9 @@
 """The model as plain arrays for the compiled kernels (numba cannot take the dataclass).
 
 Two forms, each cached per model object: :func:`pack`, a tuple of the 32 arrays and scalars
-:func:`cable_sim.core.kernel.forward._fd_kernel` takes, and :func:`pack_arrays`, the same as two
-arrays (``arr`` per link, ``par`` scalars) for the compiled steppers, so that calling one costs
-a handful of argument conversions instead of ~30.
+(the energy and joint-force kernels take them), and :func:`pack_arrays`, the same as two arrays
+(``arr`` per link, ``par`` scalars) for the forward dynamics and the compiled steppers, so that
+calling one costs a handful of argument conversions instead of ~30.
 
 Core layer: imports numpy and :mod:`cable_sim.core.model` only (no numba).
 """
