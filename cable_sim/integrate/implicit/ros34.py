@@ -131,15 +131,17 @@ def _ros_step(arr: np.ndarray, par: np.ndarray, geometric: bool, predict: bool, 
     x = wk[6]
     lam = wk[8, :2]
     ns = at.shape[0]
+    # the stage combinations run stage by stage over whole rows (vectorised loops), adding the
+    # terms in the same order as a per-entry sum over the stages: the same arithmetic
     for i in range(ns):
         for j in range(n1):
-            yq = y[j]
-            yv = y[n1 + j]
-            for m in range(i):
-                yq += h * at[i, m] * sq[m, j]
-                yv += h * at[i, m] * sv[m, j]
-            Yq[j] = yq
-            Yv[j] = yv
+            Yq[j] = y[j]
+            Yv[j] = y[n1 + j]
+        for m in range(i):
+            c = h * at[i, m]
+            for j in range(n1):
+                Yq[j] += c * sq[m, j]
+                Yv[j] += c * sv[m, j]
         if not fd_packed_ws(arr, par, us[i], es[i], Yq, Yv, acc, lam, fw):
             return False
         if i == 0:
@@ -153,13 +155,16 @@ def _ros_step(arr: np.ndarray, par: np.ndarray, geometric: bool, predict: bool, 
                               X, h):
                 return False
         for j in range(n1):
-            rq = Yv[j]
-            rv = acc[j]
-            for m in range(i):
-                rq += ct[i, m] * sq[m, j]
-                rv += ct[i, m] * sv[m, j]
-            rq *= gamma
-            rv *= gamma
+            rk[j] = Yv[j]  # the sums of rq, rv first (in rk, rd)
+            rd[j] = acc[j]
+        for m in range(i):
+            c = ct[i, m]
+            for j in range(n1):
+                rk[j] += c * sq[m, j]
+                rd[j] += c * sv[m, j]
+        for j in range(n1):
+            rq = rk[j] * gamma
+            rv = rd[j] * gamma
             rd[j] = rv
             rk[j] = rq + hg * rv
             sq[i, j] = rq  # completed below
@@ -168,20 +173,28 @@ def _ros_step(arr: np.ndarray, par: np.ndarray, geometric: bool, predict: bool, 
         for j in range(n1):
             sv[i, j] = rd[j] - x[j]
             sq[i, j] += hg * sv[i, j]
+    dq = wk[0]  # the stage rows are free now: the weighted sums of the stages
+    dv = wk[1]
+    eq = wk[2]
+    ev = wk[3]
     for j in range(n1):
-        dq = 0.0
-        dv = 0.0
-        eq = 0.0
-        ev = 0.0
-        for i in range(ns):
-            dq += mt[i] * sq[i, j]
-            dv += mt[i] * sv[i, j]
-            eq += et[i] * sq[i, j]
-            ev += et[i] * sv[i, j]
-        yn[j] = y[j] + h * dq
-        yn[n1 + j] = y[n1 + j] + h * dv
-        err[j] = h * eq
-        err[n1 + j] = h * ev
+        dq[j] = 0.0
+        dv[j] = 0.0
+        eq[j] = 0.0
+        ev[j] = 0.0
+    for i in range(ns):
+        mi = mt[i]
+        ei = et[i]
+        for j in range(n1):
+            dq[j] += mi * sq[i, j]
+            dv[j] += mi * sv[i, j]
+            eq[j] += ei * sq[i, j]
+            ev[j] += ei * sv[i, j]
+    for j in range(n1):
+        yn[j] = y[j] + h * dq[j]
+        yn[n1 + j] = y[n1 + j] + h * dv[j]
+        err[j] = h * eq[j]
+        err[n1 + j] = h * ev[j]
     return True
 
 
