@@ -1,4 +1,4 @@
-"""Lean MCAP chunk builder: the recorder's per-message work is one ``struct.pack`` and two appends.
+"""Lean MCAP chunk builder: per message the recorder does one ``struct.pack`` and four appends.
 
 The writer thread of :class:`~cable_sim.ros.recorder.writer.RunRecorder` adds every message as
 an MCAP *Message* record (opcode 0x05): its packed head and its data (not copied) go to a list,

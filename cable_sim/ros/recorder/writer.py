@@ -1,6 +1,6 @@
 """RunRecorder: non-blocking, crash-safe recording with a background writer thread.
 
-The writer thread builds the message chunks itself (:mod:`.chunks`: one ``struct.pack`` and two
+The writer thread builds the message chunks itself (:mod:`.chunks`: one ``struct.pack`` and four
 appends per message, compression outside the GIL) and leaves the header, schema, channel and
 metadata records and the summary section to the stock :class:`mcap.writer.Writer` (unchunked;
 :mod:`.index` hands it every chunk for its chunk indexes and statistics).
