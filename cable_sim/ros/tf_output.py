@@ -43,36 +43,50 @@ _CDR_LE = b"\x00\x01\x00\x00"
 class TfMessageEncoder:
     """CDR bytes of a ``tf2_msgs/msg/TFMessage`` with a fixed list of (parent, child) frames.
 
+    The template is built once; :meth:`encode` / :meth:`encode_at` copy it and write the stamps
+    and the numbers through typed views of the copy (CDR aligns every float64 to 8 bytes counted
+    from the end of the 4-byte encapsulation header, so the body is an array of float64 and of
+    uint32 words), a few numpy assignments whatever the number of transforms.
+
     Parameters
     ----------
     frames : sequence of (str, str)
         ``(header.frame_id, child_frame_id)`` of each transform, in message order.
+    base : ndarray, shape (len(frames), 7), optional
+        The numbers :meth:`encode_at` leaves in place (default zeros).
     """
 
-    def __init__(self, frames: Sequence[tuple[str, str]]) -> None:
+    def __init__(self, frames: Sequence[tuple[str, str]], base: np.ndarray | None = None) -> None:
         self.frames = [(str(p), str(c)) for p, c in frames]
-        buf = bytearray(_CDR_LE)
+        body = bytearray()  # the message after the encapsulation header (CDR offsets count from here)
         stamps: list[int] = []
         values: list[int] = []
 
-        def align(a: int) -> None:  # CDR alignment counts from the end of the encapsulation header
-            buf.extend(bytes(-(len(buf) - 4) % a))
+        def align(a: int) -> None:
+            body.extend(bytes(-len(body) % a))
 
-        buf.extend(struct.pack("<I", len(self.frames)))
+        body.extend(struct.pack("<I", len(self.frames)))
         for parent, child in self.frames:
             align(4)
-            stamps.append(len(buf))
-            buf.extend(bytes(8))  # builtin_interfaces/Time: int32 sec, uint32 nanosec
+            stamps.append(len(body) // 4)
+            body.extend(bytes(8))  # builtin_interfaces/Time: int32 sec, uint32 nanosec
             for name in (parent, child):
                 data = name.encode()
                 align(4)
-                buf.extend(struct.pack("<I", len(data) + 1) + data + b"\x00")
+                body.extend(struct.pack("<I", len(data) + 1) + data + b"\x00")
             align(8)
-            values.append(len(buf))
-            buf.extend(bytes(56))  # Vector3 translation + Quaternion rotation: 7 float64
-        self._template = np.frombuffer(bytes(buf), dtype=np.uint8)
-        self._stamp_at = np.asarray(stamps, dtype=np.intp)[:, None] + np.arange(8)
-        self._value_at = np.asarray(values, dtype=np.intp)[:, None] + np.arange(56)
+            values.append(len(body) // 8)
+            body.extend(bytes(56))  # Vector3 translation + Quaternion rotation: 7 float64
+        self._size = 4 + len(body)
+        align(8)  # the views need whole words; the padding is not sent
+        self._template = np.frombuffer(_CDR_LE + bytes(body), dtype=np.uint8).copy()
+        #: uint32 word index of each stamp's sec (nanosec follows) and float64 index of each
+        #: transform's first number, in the body.
+        self._sec_at = np.asarray(stamps, dtype=np.intp)
+        self._nsec_at = self._sec_at + 1
+        self._value_at = np.asarray(values, dtype=np.intp)[:, None] + np.arange(7)
+        if base is not None:
+            self._template[4:].view("<f8")[self._value_at] = np.asarray(base, dtype=float)
 
     def encode(self, stamp_ns: int, values: np.ndarray) -> bytes:
         """The message with every header stamped ``stamp_ns`` and ``values`` as its transforms.
@@ -84,14 +98,35 @@ class TfMessageEncoder:
         values : ndarray, shape (len(frames), 7)
             Per transform: translation x, y, z [m], rotation quaternion x, y, z, w.
         """
-        vals = np.ascontiguousarray(values, dtype="<f8")
+        vals = np.asarray(values, dtype=float)
         if vals.shape != (len(self.frames), 7):
             raise ValueError(f"values has shape {vals.shape}; expected ({len(self.frames)}, 7)")
+        return self.encode_at(stamp_ns, ((self._value_at, vals),))
+
+    def positions(self, rows: slice | np.ndarray, cols: slice | np.ndarray) -> np.ndarray:
+        """Where ``values[rows, cols]`` of :meth:`encode` go, for :meth:`encode_at`."""
+        return self._value_at[rows, cols].copy()
+
+    def encode_at(self, stamp_ns: int, writes: Sequence[tuple[np.ndarray, np.ndarray]]) -> bytes:
+        """The message stamped ``stamp_ns`` with ``data`` at each ``positions`` of ``writes`` and
+        the constructor's ``base`` elsewhere.
+
+        Parameters
+        ----------
+        stamp_ns : int
+            Stamp of every transform [ns] (>= 0).
+        writes : sequence of (positions, data)
+            ``positions`` from :meth:`positions`, ``data`` broadcastable to its shape.
+        """
         out = self._template.copy()
+        words = out[4:].view("<u4")
         sec, nsec = divmod(int(stamp_ns), 1_000_000_000)
-        out[self._stamp_at] = np.frombuffer(struct.pack("<iI", sec, nsec), dtype=np.uint8)
-        out[self._value_at] = vals.view(np.uint8).reshape(len(self.frames), 56)
-        return out.tobytes()
+        words[self._sec_at] = sec  # int32 sec >= 0: the same bits as uint32
+        words[self._nsec_at] = nsec
+        numbers = out[4:].view("<f8")
+        for at, data in writes:
+            numbers[at] = data
+        return out[: self._size].tobytes()
 
 
 def _values(transforms: Sequence[Any]) -> np.ndarray:
@@ -121,13 +156,18 @@ class CableTf:
         self.model = model
         name = frame_namer(frame_id)
         moving = tf_transforms(model, np.zeros(model.n + 1), include_fixed=False)
-        self.moving = TfMessageEncoder([(name(p), name(c)) for p, c, _, _ in moving])
+        self._base = _values(moving)  # translations constant (heave only in row 0), rotations about -y
+        self.moving = TfMessageEncoder([(name(p), name(c)) for p, c, _, _ in moving], self._base)
         fixed = static_transforms(model)
         self.fixed = TfMessageEncoder([(name(p), name(c)) for p, c, _, _ in fixed])
         self._fixed_values = _values(fixed)
-        # moving transforms: translations are constant (heave only in row 0), rotations about -y
-        self._base = _values(moving)
         self._axis = np.asarray(JOINT_AXIS, dtype=float)
+        # what tf() writes per joint state (the rest is in the template): the heave and the
+        # links' quaternions (scratch: one CableTf serves one thread)
+        self._heave_at = self.moving.positions(0, 2)
+        self._rotation_at = self.moving.positions(slice(1, None), slice(3, 7)).T.copy()
+        self._quaternions = np.empty((4, model.n))  # rows x, y, z, w: contiguous per component
+        self._axis_column = self._axis[:, None]
 
     def moving_values(self, joint_positions: Sequence[float] | np.ndarray) -> np.ndarray:
         """``(n + 1, 7)`` translations and quaternions of the moving joints: the numbers of
@@ -144,8 +184,17 @@ class CableTf:
         return v
 
     def tf(self, joint_positions: Sequence[float] | np.ndarray, stamp_ns: int) -> bytes:
-        """``/tf`` message (CDR) at a joint state (``JointState.position`` of the node)."""
-        return self.moving.encode(stamp_ns, self.moving_values(joint_positions))
+        """``/tf`` message (CDR) at a joint state (``JointState.position`` of the node): the bytes
+        of ``moving.encode(stamp_ns, moving_values(joint_positions))``, written column-wise."""
+        pos = np.asarray(joint_positions, dtype=float)
+        if pos.shape != (self.model.n + 1,):
+            raise ValueError(f"joint_positions has shape {pos.shape}; the model needs "
+                             f"({self.model.n + 1},) (heave, then one relative angle per link)")
+        half = 0.5 * pos[1:]
+        q = self._quaternions
+        np.multiply(self._axis_column, np.sin(half), out=q[:3])
+        np.cos(half, out=q[3])
+        return self.moving.encode_at(stamp_ns, ((self._heave_at, pos[0]), (self._rotation_at, q)))
 
     def tf_static(self, stamp_ns: int) -> bytes:
         """``/tf_static`` message (CDR): the fixed joints."""

@@ -57,6 +57,22 @@ def test_tf_bytes_equal_a_serialiser_built_from_the_definition(scene):
     assert cable.tf_static(7_250_000_000) == bytes(enc(_tf_dict(static_transforms(model))))
 
 
+def test_tf_bytes_do_not_depend_on_earlier_calls():
+    """tf() writes into scratch it keeps: each call's bytes are those of its own joint state
+    (checked against the serialiser built from the definition), whatever was encoded before."""
+    model = load_scene("mooring_line").model()
+    enc = serialize_dynamic("tf2_msgs/TFMessage", message_definition("tf2_msgs/msg/TFMessage"))
+    enc = enc["tf2_msgs/TFMessage"]
+    cable = CableTf(model)
+    rng = np.random.default_rng(5)
+    states = [rng.normal(size=model.n + 1) * 3.0 for _ in range(3)]
+    first = [cable.tf(p, 7_250_000_000) for p in states]
+    again = [cable.tf(p, 7_250_000_000) for p in reversed(states)][::-1]
+    assert first == again
+    for p, data in zip(states, first, strict=True):
+        assert data == bytes(enc(_tf_dict(tf_transforms(model, p, include_fixed=False))))
+
+
 def test_frame_prefix_follows_frame_id():
     assert frame_namer("world")("link_3") == "link_3"
     assert frame_namer("leg1/world")("link_3") == "leg1/link_3"
