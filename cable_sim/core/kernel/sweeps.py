@@ -9,9 +9,11 @@ One implementation of each piece, used by the forward-dynamics kernel
   velocity, a velocity in the link frame (``t = (cos, sin)`` normal, ``e = (sin, -cos)`` axis);
 * the Morison drag force on a link centre; the joint torques; whether the load enters by
   Woodbury;
-* a 2x2 articulated inertia seen in the link frame and turned back to the world frame;
-* the inward (tip to platform) sweep of the 2x2 articulated inertias and bias forces, with the
-  unit end-force right-hand sides of the anchor and the heavy-load Woodbury form;
+* a 2x2 articulated inertia seen in the link frame and turned back to the world frame, or into
+  the parent link's frame;
+* the inward (tip to platform) sweep of the 2x2 articulated inertias (each kept in its link's
+  frame: one rotation per link) and bias forces, with the unit end-force right-hand sides of
+  the anchor and the heavy-load Woodbury form;
 * the outward (platform to tip) acceleration sweep, also for the implicit operator's 3x3 form
   (joint "armature" coupling a link to its parent's rotation);
 * the 2x2 solve and the column update of the anchor / heavy-load correction.
@@ -191,13 +193,41 @@ def to_world(a_tt: float, a_te: float, a_ee: float, c: float, s: float) -> tuple
 
 
 @nb.njit(cache=True, inline="always")
-def articulated_inertia(
-    mn: float, me: float, x: float, y: float, z: float, xp: float, c: float, s: float
-) -> tuple[float, float, float]:
-    """New articulated inertia A' = mn t t^T + me e e^T + A - h h^T / D of a link, world-frame
-    (xx, xz, zz); mn = me = m without added mass (then A' = m I + A - h h^T / D).
+def to_parent_frame(p: float, r: float, u: float, cr: float, sr: float) -> tuple[float, float, float]:
+    """``t^T A t, t^T A e, e^T A e`` in a link's frame (t, e) of a symmetric A given in its
+    child's frame (t', e') as ``p = t'^T A t', r = t'^T A e', u = e'^T A e'``.
 
-    Assembled in the link frame (t, e) to avoid cancellation in the t direction, then rotated.
+    ``cr = t.t' = e.e'`` and ``sr = t.e' = -e.t'`` are the cos/sin of the child's angle minus
+    the link's (:func:`relative_trig`): ``t = cr t' + sr e'``, ``e = -sr t' + cr e'``. An
+    isotropic A (``p = u``, ``r = 0``) gives ``t^T A e = 0`` exactly; A enters each product
+    once (the trig products do not depend on the recursion).
+    """
+    cc = cr * cr
+    ss = sr * sr
+    cs = cr * sr
+    x = p * cc + r * (2.0 * cs) + u * ss
+    y = (u - p) * cs + r * (cc - ss)
+    z = p * ss - r * (2.0 * cs) + u * cc
+    return x, y, z
+
+
+@nb.njit(cache=True, inline="always")
+def relative_trig(c: float, s: float, cc: float, sc: float) -> tuple[float, float]:
+    """cos and sin of a child link's angle minus its parent's (child ``cc, sc``, parent
+    ``c, s``)."""
+    return c * cc + s * sc, c * sc - s * cc
+
+
+@nb.njit(cache=True, inline="always")
+def articulated_inertia(
+    mn: float, me: float, x: float, y: float, z: float, xp: float
+) -> tuple[float, float, float]:
+    """New articulated inertia A' = mn t t^T + me e e^T + A - h h^T / D of a link in its own
+    frame (``t^T A' t, t^T A' e, e^T A' e``); mn = me = m without added mass (then
+    A' = m I + A - h h^T / D).
+
+    Assembled in the link frame (t, e) to avoid cancellation in the t direction; the inward
+    sweep keeps it there (its parent turns it into its own frame, :func:`to_parent_frame`).
     ``a_tt = mn (x/3 + mn/12) / xp`` is written ``(x + mn/4) (mn/3) / xp`` and the three
     divisions by xp as one reciprocal: one division on the sweep's chain instead of two in
     series.
@@ -206,7 +236,7 @@ def articulated_inertia(
     a_tt = (x + 0.25 * mn) * (mn / 3.0) * ixp
     a_te = -y * (mn / 6.0) * ixp
     a_ee = me + z - y * y * ixp
-    return to_world(a_tt, a_te, a_ee, c, s)
+    return a_tt, a_te, a_ee
 
 
 # ---- inward sweep (tip to platform) ------------------------------------------------------------
@@ -267,22 +297,38 @@ def inward_sweep(
     added mass A = m_an t t^T + m_at e e^T per length, the link's rotation sees mn (t.A.e = 0),
     so D = l^2 (mn/3 + t.A_child.t), h = l A_child t + (mn l/2) t, and the centripetal term
     -w^2 (me l/2) e.
+
+    Each articulated inertia stays in its link's frame; the parent turns it into its own by the
+    relative angle (one rotation per link on the recursion's chain instead of one out of the
+    link frame and one into the next).
     """
     n = l.shape[0]
     nrhs = bx.shape[0]
-    axx = mload
-    axz = 0.0
-    azz = mload
+    # A of the child in the child's frame (p, r, u); the load's is isotropic (any frame)
+    p = mload
+    r = 0.0
+    u = mload
+    cc = 1.0
+    sc = 0.0
     for i in range(n - 1, -1, -1):
         c = cth[i]
         s = sth[i]
         li = l[i]
         mi = mn[i]
-        x, y, z = link_frame(axx, axz, azz, c, s)
+        if i == n - 1:
+            x, y, z = p, r, u
+        else:
+            cr, sr = relative_trig(c, s, cc, sc)
+            x, y, z = to_parent_frame(p, r, u, cr, sr)
+        cc = c
+        sc = s
         xp = x + mi / 3.0
         d = li * li * xp
-        h_x = li * (axx * c + axz * s) + 0.5 * mi * li * c
-        h_z = li * (axz * c + azz * s) + 0.5 * mi * li * s
+        # A t = x t + y e and A e = y t + z e, in world components
+        atx, atz = from_link_frame(x, y, c, s)
+        aex, aez = from_link_frame(y, z, c, s)
+        h_x = li * atx + 0.5 * mi * li * c
+        h_z = li * atz + 0.5 * mi * li * s
         dd[i] = d
         hx[i] = h_x
         hz[i] = h_z
@@ -291,13 +337,15 @@ def inward_sweep(
             ra = -tau[i] + tau[i + 1] + cpl[i] + 0.5 * li * (c * fgx[i] + s * fgz[i])
             w2 = qd[i + 1] * qd[i + 1]
             rr[0, i], bx[0], bz[0] = bias_step(
-                bx[0], bz[0], ra, fgx[i], fgz[i], li, me[i], c, s, w2, y,
-                axx * s - axz * c, axz * s - azz * c, h_x, h_z, inv_d,
+                bx[0], bz[0], ra, fgx[i], fgz[i], li, me[i], c, s, w2, y, aex, aez, h_x, h_z,
+                inv_d,
             )
         for k in range(1, nrhs):
             rr[k, i], bx[k], bz[k] = unit_force_step(bx[k], bz[k], li, c, s, h_x, h_z, inv_d)
-        axx, axz, azz = articulated_inertia(mi, me[i], x, y, z, xp, c, s)
-    return azz
+        p, r, u = articulated_inertia(mi, me[i], x, y, z, xp)
+    if n == 0:
+        return mload
+    return to_world(p, r, u, cc, sc)[2]
 
 
 # ---- outward sweep (platform to tip) -----------------------------------------------------------
