@@ -145,9 +145,12 @@ def recording_target(path: Path) -> dict:
     if not rows:
         return _row(target, float("nan"), goal, f"not measured in this run (no node_overhead row in {path})")
     r = rows[-1]
+    spread = (f", median of {r['pairs']} alternated pairs ({float(r['overhead_min']):.3g} .. "
+              f"{float(r['overhead_max']):.3g})" if r.get("pairs") else "")
     return _row(target, float(r["overhead"]), goal,
-                f"from {path} (separate command: python -m cable_sim.analysis.recorder_bench): the node "
-                f"in fast mode, steps/s {r.get('mode') or 'record vs no record'}; not measured in this run")
+                f"from {path} (separate command: python -m cable_sim.analysis.recorder_bench "
+                f"--repeats 6): the node in fast mode, steps/s "
+                f"{r.get('mode') or 'record vs no record'}{spread}; not measured in this run")
 
 
 def peer_target(peer: list[dict]) -> dict:
