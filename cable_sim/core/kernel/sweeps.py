@@ -362,6 +362,8 @@ def outward_sweep(
     ``alpha_i = (R_i - h_i . a_(i-1) [+ beta_i alpha_(i-1)]) / D_i`` (the bracket with
     ``coupled``: the implicit operator's joint armature), ``a_i = a_(i-1) + l (t alpha_i - e w^2)``
     (the centripetal term with ``velocity``, from ``qd``). Writes ``sol = [zdd, alpha_1..n]``.
+    Evaluated as ``R/D - (h/D) . a_(i-1)`` and ``(a_(i-1) - l w^2 e) + (l t) alpha_i``, the
+    factors formed off the recursion's chain (equal to round-off).
     """
     n = l.shape[0]
     sol[0] = zdd
@@ -370,20 +372,26 @@ def outward_sweep(
     apz = zdd
     for i in range(n):
         li = l[i]
-        inv = 1.0 / dd[i]  # dd is known ahead: a multiply, not a division, on the chain
+        # every factor known ahead is formed off the chain (1/D, h/D, R/D, l t, l w^2 e): on
+        # the chain, alpha costs a product and two sums, a_i a product and a sum
+        inv = 1.0 / dd[i]
+        gx = hx[i] * inv
+        gz = hz[i] * inv
         if coupled:
-            alpha = (beta[i] * ap - hx[i] * apx - hz[i] * apz + rr[i]) * inv
+            alpha = (rr[i] * inv + beta[i] * inv * ap) - (gx * apx + gz * apz)
         else:
-            alpha = (rr[i] - hx[i] * apx - hz[i] * apz) * inv
+            alpha = rr[i] * inv - (gx * apx + gz * apz)
         sol[i + 1] = alpha
         ap = alpha
+        ltx = li * cth[i]
+        ltz = li * sth[i]
         if velocity:
             w2 = qd[i + 1] * qd[i + 1]
-            apx += li * (cth[i] * alpha - sth[i] * w2)
-            apz += li * (sth[i] * alpha + cth[i] * w2)
+            apx = (apx - ltz * w2) + ltx * alpha
+            apz = (apz + ltx * w2) + ltz * alpha
         else:
-            apx += li * (cth[i] * alpha)
-            apz += li * (sth[i] * alpha)
+            apx += ltx * alpha
+            apz += ltz * alpha
     return apx, apz
 
 
