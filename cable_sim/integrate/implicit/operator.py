@@ -273,14 +273,19 @@ def _op_rhs_inward(l: np.ndarray, W: np.ndarray, rhs: np.ndarray, use_rhs: bool,
     beta = W[_W_BETA]
     bn = 0.0
     for i in range(l.shape[0] - 1, -1, -1):
-        b = bn + l[i] * (cth[i] * bx + sth[i] * bz)
+        # the factors known ahead (l t, u/D, beta/D) formed off the recursion's chain: on it
+        # b costs a product and two sums, the new end force a product and a sum
+        ltx = l[i] * cth[i]
+        ltz = l[i] * sth[i]
+        inv_d = 1.0 / dd[i]
         if use_rhs:
-            b -= rhs[i + 1]
+            b = (bn - rhs[i + 1]) + (ltx * bx + ltz * bz)
+        else:
+            b = bn + (ltx * bx + ltz * bz)
         rr[i] = -b
-        r = b * (1.0 / dd[i])  # dd is known ahead: a multiply, not a division, on the chain
-        bn = beta[i] * r
-        bx -= uxa[i] * r
-        bz -= uza[i] * r
+        bn = (beta[i] * inv_d) * b
+        bx -= (uxa[i] * inv_d) * b
+        bz -= (uza[i] * inv_d) * b
         if not use_rhs and abs(bx) + abs(bz) + abs(bn) < TINY:
             bn = 0.0
             bx = 0.0
