@@ -54,13 +54,14 @@ from cable_sim.core.kernel.sweeps import (
     centre_velocity,
     from_link_frame,
     joint_torque,
-    link_frame,
     link_frame_velocity,
     link_trig,
     next_pin_velocity,
     outward_sweep,
+    relative_trig,
     singular_2x2,
     solve_2x2,
+    to_parent_frame,
     to_world,
     woodbury_load,
 )
@@ -180,7 +181,9 @@ def _contact_moments(a: float, b: float) -> tuple[float, float, float]:
 @nb.njit(cache=True, inline="always")
 def _op_inward(arr: np.ndarray, W: np.ndarray, mload: float, hg: float) -> float:
     """The 3x3 articulated inertias ``[[c, w^T], [w, A]]``, tip to platform; fills ``D_i`` and
-    ``u_i`` (world frame) in W and returns the platform's ``A_zz`` (see :func:`_op_factor`)."""
+    ``u_i`` (world frame) in W and returns the platform's ``A_zz`` (see :func:`_op_factor`).
+    A and w stay in each link's frame; the parent turns them into its own by the relative
+    angle (:func:`cable_sim.core.kernel.sweeps.to_parent_frame`)."""
     n = arr.shape[1]
     l = arr[0]
     m = arr[12]  # link mass seen along the normal (m + m_an l with added mass)
@@ -192,20 +195,32 @@ def _op_inward(arr: np.ndarray, W: np.ndarray, mload: float, hg: float) -> float
     sth = W[_W_SIN]
     beta = W[_W_BETA]
     rot = W[_W_ROT]
-    axx = mload
-    axz = 0.0
-    azz = mload
+    # the child's A and w in the child's frame (the load's A is isotropic: any frame), turned
+    # into each link's frame by the relative angle (one rotation on the recursion's chain)
+    pa = mload
+    ra = 0.0
+    ua = mload
     cc = 0.0
-    wx = 0.0
-    wz = 0.0
+    wtc = 0.0
+    wec = 0.0
+    cp = 1.0
+    sp = 0.0
     for i in range(n - 1, -1, -1):
         c = cth[i]
         s = sth[i]
         li = l[i]
         mi = m[i]
         il2 = 1.0 / (li * li)
-        p_tt, r_te, s_ee = link_frame(axx, axz, azz, c, s)
-        wt, we = link_frame_velocity(wx, wz, c, s)
+        if i == n - 1:
+            p_tt, r_te, s_ee = pa, ra, ua
+            wt, we = wtc, wec
+        else:
+            cr, sr = relative_trig(c, s, cp, sp)
+            p_tt, r_te, s_ee = to_parent_frame(pa, ra, ua, cr, sr)
+            wt = cr * wtc + sr * wec
+            we = cr * wec - sr * wtc
+        cp = c
+        sp = s
         mt = mi + W[_W_GT, i]
         me = ma[i] + W[_W_GE, i]
         bi = beta[i]
@@ -245,18 +260,21 @@ def _op_inward(arr: np.ndarray, W: np.ndarray, mload: float, hg: float) -> float
         m0 = mt + q0
         a_tt = (m0 * ip + mt * qc + qv + m0 * cw + 2.0 * ww * (0.5 * mt + qm)
                 + p_tt * (ip + 0.25 * mt + qq) + (p_tt * cw - ww * ww)) / dn
-        axx, axz, azz = to_world(a_tt, r_te - mz * s * c - ut * ue * inv_d,
-                                 me + mz * c * c + s_ee - ue * ue * inv_d, c, s)
+        pa = a_tt
+        ra = r_te - mz * s * c - ut * ue * inv_d
+        ua = me + mz * c * c + s_ee - ue * ue * inv_d
         uxw, uzw = from_link_frame(ut, ue, c, s)
         W[_W_D, i] = d
         W[_W_UX, i] = uxw
         W[_W_UZ, i] = uzw
-        # rotational coupling passed to the parent (zero without armature)
+        # rotational coupling passed to the parent (zero without armature), link frame
         dnb = li * li * (mi / 12.0 + rot[i] * il2 + 0.25 * mt + q2 + cw + 2.0 * ww + p_tt)
         cc = bi * dnb * inv_d
-        wx = bi * uxw * inv_d
-        wz = bi * uzw * inv_d
-    return azz
+        wtc = bi * ut * inv_d
+        wec = bi * ue * inv_d
+    if n == 0:
+        return mload
+    return to_world(pa, ra, ua, cp, sp)[2]
 
 
 @nb.njit(cache=True, inline="always")
