@@ -133,6 +133,7 @@ def test_node_stops_on_instability_and_publishes_nothing_implausible(step: str, 
     from ros_util import init_context, isolate_ros, kill_and_reap, spin_until, start_node
     from rosbags.highlevel import AnyReader
     from sensor_msgs.msg import JointState
+    from std_srvs.srv import Trigger
 
     domain = isolate_ros()
     path = tmp_path / "blowup.mcap"
@@ -160,7 +161,18 @@ def test_node_stops_on_instability_and_publishes_nothing_implausible(step: str, 
                       f"record_path:={path}", domain=domain, cwd=tmp_path)
     try:
         t0 = time.monotonic()
-        ok = spin_until(ex, lambda: bool(errors) or proc.poll() is not None, 240)
+        # in fast mode the node may reach the blow-up (~24 s simulated) before discovery matches
+        # this subscriber: once it is matched, reset the node so the whole run is seen live
+        reset = peer.create_client(Trigger, "reset")
+        assert spin_until(ex, lambda: (peer.count_publishers("/joint_states") > 0
+                                       and reset.service_is_ready()) or proc.poll() is not None, 120)
+        assert proc.poll() is None, "the node exited before the test could reset it"
+        fut = reset.call_async(Trigger.Request())
+        assert spin_until(ex, fut.done, 30) and fut.result().success
+        states.clear()
+        errors.clear()
+        # (an ERROR of the run before the reset may still be in flight: wait for live states too)
+        ok = spin_until(ex, lambda: (bool(errors) and len(states) > 100) or proc.poll() is not None, 240)
         assert ok and errors, f"no ERROR diagnostic after {time.monotonic() - t0:.0f} s"
         spin_until(ex, lambda: False, 1.0)  # drain the joint states still in flight
         proc.send_signal(signal.SIGINT)  # close the recording
