@@ -32,6 +32,8 @@ OSC_STEPS = 3
 #: ... each above ``OSC_ACCEL g h / l_min`` (an angular acceleration ten times a link's
 #: pendulum scale), is a numerically unstable mode growing geometrically (|R(h lambda)| > 1).
 OSC_ACCEL = 10.0
+#: 1/24 (the kinetic-energy bound multiplies instead of dividing per link).
+_INV24 = 1.0 / 24.0
 
 
 @nb.njit(cache=True)
@@ -144,7 +146,7 @@ def _energy_checks(arr: np.ndarray, par: np.ndarray, y: np.ndarray, chk: np.ndar
         tlb = 0.5 * par[4] * y[n1] * y[n1]
         for i in range(n1 - 1):
             w = y[n1 + 1 + i]
-            tlb += m[i] * l[i] * l[i] * w * w / 24.0
+            tlb += m[i] * l[i] * l[i] * w * w * _INV24
         if tlb > chk[5]:
             info[2] = tlb
             return STATUS_UNSTABLE

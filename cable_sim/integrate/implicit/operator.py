@@ -67,6 +67,9 @@ from cable_sim.core.kernel.sweeps import (
 )
 from cable_sim.core.model import CableModel
 
+#: 1/12 (a multiply per link instead of a division: equal to round-off).
+_TWELFTH = 1.0 / 12.0
+
 # rows of the per-link workspace W (n columns); _W_CA, _W_CB: the link's seabed contact interval;
 # _W_PX, _W_PZ: scratch of the product (per-link forces of the Morison and contact terms)
 (_W_COS, _W_SIN, _W_D, _W_UX, _W_UZ, _W_BETA, _W_ROT, _W_GT, _W_GE, _W_BCN, _W_DROT, _W_KGEO,
@@ -210,7 +213,8 @@ def _op_inward(arr: np.ndarray, W: np.ndarray, mload: float, hg: float) -> float
         s = sth[i]
         li = l[i]
         mi = m[i]
-        il2 = 1.0 / (li * li)
+        il = 1.0 / li
+        il2 = il * il
         if i == n - 1:
             p_tt, r_te, s_ee = pa, ra, ua
             wt, we = wtc, wec
@@ -224,7 +228,7 @@ def _op_inward(arr: np.ndarray, W: np.ndarray, mload: float, hg: float) -> float
         mt = mi + W[_W_GT, i]
         me = ma[i] + W[_W_GE, i]
         bi = beta[i]
-        ip = mi / 12.0 + (rot[i] + bi) * il2  # rotational inertia about the centre / l^2
+        ip = mi * _TWELFTH + (rot[i] + bi) * il2  # rotational inertia about the centre / l^2
         # seabed: a world-z mass of density kap = hg c_b + hg^2 k_b on the contact interval;
         # in the t direction (z.t = s) its mass, moments / l, l^2 and the centred forms
         za, zb_ = W[_W_CA, i], W[_W_CB, i]
@@ -244,22 +248,23 @@ def _op_inward(arr: np.ndarray, W: np.ndarray, mload: float, hg: float) -> float
             s1 = kap * h1
             ks = kap * s * s
             q0 = ks * h0
-            q1 = ks * h1 / li
+            q1 = ks * h1 * il
             q2 = ks * h2 * il2
             qc = ks * _contact_moments(za - 0.5 * li, zb_ - 0.5 * li)[2] * il2  # about the centre
             qv = ks * ks * h0 * h0 * h0 * h0 * il2 / 12.0  # q0 q2 - q1^2
             qm = q0 * (1.0 - 0.5 * (za + zb_) / li)  # q0 - q1
             qq = ks * _contact_moments(1.0 - zb_ / li, 1.0 - za / li)[2] * li  # q0 + q2 - 2 q1
         cw = cc * il2
-        ww = wt * (1.0 / li)  # the reciprocal off the recursion's chain
+        ww = wt * il  # the reciprocal off the recursion's chain
         dn = ip + 0.25 * mt + q2 + cw + 2.0 * ww + p_tt  # D / l^2
         d = li * li * dn
-        inv_d = 1.0 / d  # one division for the five by D below
+        idn = 1.0 / dn  # one division for the six by D below (and 1/l once: two per link)
+        inv_d = idn * il2
         ut = li * (0.5 * mt + q1 + p_tt) + wt
         ue = we + li * r_te - s1 * s * c
         m0 = mt + q0
         a_tt = (m0 * ip + mt * qc + qv + m0 * cw + 2.0 * ww * (0.5 * mt + qm)
-                + p_tt * (ip + 0.25 * mt + qq) + (p_tt * cw - ww * ww)) / dn
+                + p_tt * (ip + 0.25 * mt + qq) + (p_tt * cw - ww * ww)) * idn
         pa = a_tt
         ra = r_te - mz * s * c - ut * ue * inv_d
         ua = me + mz * c * c + s_ee - ue * ue * inv_d
@@ -268,7 +273,7 @@ def _op_inward(arr: np.ndarray, W: np.ndarray, mload: float, hg: float) -> float
         W[_W_UX, i] = uxw
         W[_W_UZ, i] = uzw
         # rotational coupling passed to the parent (zero without armature), link frame
-        dnb = li * li * (mi / 12.0 + rot[i] * il2 + 0.25 * mt + q2 + cw + 2.0 * ww + p_tt)
+        dnb = li * li * (mi * _TWELFTH + rot[i] * il2 + 0.25 * mt + q2 + cw + 2.0 * ww + p_tt)
         cc = bi * dnb * inv_d
         wtc = bi * ut * inv_d
         wec = bi * ue * inv_d
