@@ -169,7 +169,7 @@ def anchor_correction(
 # ---- workspace -------------------------------------------------------------------------------
 
 # rows of the forward-dynamics workspace (FD_ROWS x max(n + 1, 3)): link cos/sin, joint torques,
-# applied centre forces and couples, the sweep's D, h and R (three right-hand sides), the outward
+# applied centre forces and couples, the sweep's 1/D, h and R (three right-hand sides), the outward
 # solutions of the two unit end forces, the right-hand sides' end forces and end accelerations,
 # and four rows holding the seabed's per-link resultants and first moments ((n, 2) each)
 (_F_COS, _F_SIN, _F_TAU, _F_FGX, _F_FGZ, _F_CPL, _F_DD, _F_HX, _F_HZ, _F_RR, _F_SOL, _F_BX,

@@ -284,7 +284,7 @@ def unit_force_step(
 def inward_sweep(
     l: np.ndarray, mn: np.ndarray, me: np.ndarray, cth: np.ndarray, sth: np.ndarray, qd: np.ndarray,
     tau: np.ndarray, cpl: np.ndarray, fgx: np.ndarray, fgz: np.ndarray, bias: bool,
-    mload: float, bx: np.ndarray, bz: np.ndarray, dd: np.ndarray, hx: np.ndarray,
+    mload: float, bx: np.ndarray, bz: np.ndarray, idd: np.ndarray, hx: np.ndarray,
     hz: np.ndarray, rr: np.ndarray,
 ) -> float:
     """Articulated inertias (force-independent) and bias forces, tip to platform.
@@ -292,7 +292,7 @@ def inward_sweep(
     Starts from the load ``A_(n+1) = mload I`` and the end forces ``bx, bz`` (one per
     right-hand side, updated in place to the platform's). Row 0 is the applied forces (when
     ``bias``: joint torques ``tau``, couples ``cpl``, centre forces ``fgx, fgz``, velocities);
-    rows 1.. are unit end forces. Fills ``dd`` (D_i), ``hx, hz`` (h_i) and ``rr`` (R_i per
+    rows 1.. are unit end forces. Fills ``idd`` (1/D_i), ``hx, hz`` (h_i) and ``rr`` (R_i per
     right-hand side); returns ``A_1,zz`` (the platform's articulated mass beyond its own).
 
     Link masses: ``mn`` as seen along the link normal t and ``me`` along its axis e (the link
@@ -333,10 +333,10 @@ def inward_sweep(
         aex, aez = from_link_frame(y, z, c, s)
         h_x = li * atx + 0.5 * mi * li * c
         h_z = li * atz + 0.5 * mi * li * s
-        dd[i] = d
+        inv_d = 1.0 / d  # from the inertia recursion: off the right-hand sides' chains
+        idd[i] = inv_d
         hx[i] = h_x
         hz[i] = h_z
-        inv_d = 1.0 / d  # from the inertia recursion: off the right-hand sides' chains
         if bias:
             ra = -tau[i] + tau[i + 1] + cpl[i] + 0.5 * li * (c * fgx[i] + s * fgz[i])
             w2 = qd[i + 1] * qd[i + 1]
@@ -359,13 +359,14 @@ def inward_sweep(
 def outward_sweep(
     l: np.ndarray, cth: np.ndarray, sth: np.ndarray, qd: np.ndarray, velocity: bool,
     beta: np.ndarray, coupled: bool, rr: np.ndarray, hx: np.ndarray, hz: np.ndarray,
-    dd: np.ndarray, zdd: float, sol: np.ndarray,
+    idd: np.ndarray, zdd: float, sol: np.ndarray,
 ) -> tuple[float, float]:
     """Link accelerations from the platform's ``zdd`` outwards; returns the end's acceleration.
 
     ``alpha_i = (R_i - h_i . a_(i-1) [+ beta_i alpha_(i-1)]) / D_i`` (the bracket with
     ``coupled``: the implicit operator's joint armature), ``a_i = a_(i-1) + l (t alpha_i - e w^2)``
     (the centripetal term with ``velocity``, from ``qd``). Writes ``sol = [zdd, alpha_1..n]``.
+    ``idd`` holds the reciprocals 1/D_i (formed once per factorisation, not per solve).
     Evaluated as ``R/D - (h/D) . a_(i-1)`` and ``(a_(i-1) - l w^2 e) + (l t) alpha_i``, the
     factors formed off the recursion's chain (equal to round-off).
     """
@@ -378,7 +379,7 @@ def outward_sweep(
         li = l[i]
         # every factor known ahead is formed off the chain (1/D, h/D, R/D, l t, l w^2 e): on
         # the chain, alpha costs a product and two sums, a_i a product and a sum
-        inv = 1.0 / dd[i]
+        inv = idd[i]
         gx = hx[i] * inv
         gz = hz[i] * inv
         if coupled:

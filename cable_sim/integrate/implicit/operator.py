@@ -70,8 +70,9 @@ from cable_sim.core.model import CableModel
 #: 1/12 (a multiply per link instead of a division: equal to round-off).
 _TWELFTH = 1.0 / 12.0
 
-# rows of the per-link workspace W (n columns); _W_CA, _W_CB: the link's seabed contact interval;
-# _W_PX, _W_PZ: scratch of the product (per-link forces of the Morison and contact terms)
+# rows of the per-link workspace W (n columns; _W_D holds 1/D_i); _W_CA, _W_CB: the link's
+# seabed contact interval; _W_PX, _W_PZ: scratch of the product (per-link forces of the Morison
+# and contact terms)
 (_W_COS, _W_SIN, _W_D, _W_UX, _W_UZ, _W_BETA, _W_ROT, _W_GT, _W_GE, _W_BCN, _W_DROT, _W_KGEO,
  _W_CA, _W_CB, _W_PX, _W_PZ) = range(16)
 _NW = 16
@@ -183,7 +184,7 @@ def _contact_moments(a: float, b: float) -> tuple[float, float, float]:
 
 @nb.njit(cache=True, inline="always")
 def _op_inward(arr: np.ndarray, W: np.ndarray, mload: float, hg: float) -> float:
-    """The 3x3 articulated inertias ``[[c, w^T], [w, A]]``, tip to platform; fills ``D_i`` and
+    """The 3x3 articulated inertias ``[[c, w^T], [w, A]]``, tip to platform; fills ``1/D_i`` and
     ``u_i`` (world frame) in W and returns the platform's ``A_zz`` (see :func:`_op_factor`).
     A and w stay in each link's frame; the parent turns them into its own by the relative
     angle (:func:`cable_sim.core.kernel.sweeps.to_parent_frame`)."""
@@ -257,7 +258,6 @@ def _op_inward(arr: np.ndarray, W: np.ndarray, mload: float, hg: float) -> float
         cw = cc * il2
         ww = wt * il  # the reciprocal off the recursion's chain
         dn = ip + 0.25 * mt + q2 + cw + 2.0 * ww + p_tt  # D / l^2
-        d = li * li * dn
         idn = 1.0 / dn  # one division for the six by D below (and 1/l once: two per link)
         inv_d = idn * il2
         ut = li * (0.5 * mt + q1 + p_tt) + wt
@@ -269,7 +269,7 @@ def _op_inward(arr: np.ndarray, W: np.ndarray, mload: float, hg: float) -> float
         ra = r_te - mz * s * c - ut * ue * inv_d
         ua = me + mz * c * c + s_ee - ue * ue * inv_d
         uxw, uzw = from_link_frame(ut, ue, c, s)
-        W[_W_D, i] = d
+        W[_W_D, i] = inv_d
         W[_W_UX, i] = uxw
         W[_W_UZ, i] = uzw
         # rotational coupling passed to the parent (zero without armature), link frame
@@ -290,7 +290,7 @@ def _op_rhs_inward(l: np.ndarray, W: np.ndarray, rhs: np.ndarray, use_rhs: bool,
     in ``rr`` (read by the outward sweep) and returns the force on the platform."""
     cth = W[_W_COS]
     sth = W[_W_SIN]
-    dd = W[_W_D]
+    idd = W[_W_D]
     uxa = W[_W_UX]
     uza = W[_W_UZ]
     beta = W[_W_BETA]
@@ -300,7 +300,7 @@ def _op_rhs_inward(l: np.ndarray, W: np.ndarray, rhs: np.ndarray, use_rhs: bool,
         # b costs a product and two sums, the new end force a product and a sum
         ltx = l[i] * cth[i]
         ltz = l[i] * sth[i]
-        inv_d = 1.0 / dd[i]
+        inv_d = idd[i]
         if use_rhs:
             b = (bn - rhs[i + 1]) + (ltx * bx + ltz * bz)
         else:
