@@ -277,6 +277,14 @@ def _op_inward(arr: np.ndarray, W: np.ndarray, mload: float, hg: float) -> float
         cc = bi * dnb * inv_d
         wtc = bi * ut * inv_d
         wec = bi * ue * inv_d
+        # cross terms decaying geometrically along a straight stretch: flushed at TINY of the
+        # inertia / coupling before they turn subnormal (as in sweeps.inward_sweep: every
+        # 16th link)
+        if i & 15 == 0:
+            if abs(ra) < TINY * (abs(pa) + abs(ua)):
+                ra = 0.0
+            if abs(wec) < TINY * abs(wtc):
+                wec = 0.0
     if n == 0:
         return mload
     return to_world(pa, ra, ua, cp, sp)[2]
