@@ -269,7 +269,11 @@ class RunRecorder:
         while True:
             try:
                 if q:
+                    backlog = len(q) >= self._batch
                     self._drain(self._batch)
+                    if not backlog and not self._closing:
+                        # let messages gather: one GIL hand-off per poll period, not per message
+                        time.sleep(self._poll)
                 elif self._closing:
                     break
                 else:
