@@ -185,15 +185,14 @@ def link_frame(axx: float, axz: float, azz: float, c: float, s: float) -> tuple[
 
 @nb.njit(cache=True, inline="always")
 def to_world(a_tt: float, a_te: float, a_ee: float, c: float, s: float) -> tuple[float, float, float]:
-    """World-frame (xx, xz, zz) of ``a_tt t t^T + a_te (t e^T + e t^T) + a_ee e e^T`` (the
-    trig products formed first, as in :func:`link_frame`)."""
-    cc = c * c
-    ss = s * s
-    cs = c * s
-    axx = a_tt * cc + a_te * (2.0 * cs) + a_ee * ss
-    axz = a_tt * cs + a_te * (ss - cc) - a_ee * cs
-    azz = a_tt * ss - a_te * (2.0 * cs) + a_ee * cc
-    return axx, axz, azz
+    """World-frame (xx, xz, zz) of ``a_tt t t^T + a_te (t e^T + e t^T) + a_ee e e^T``.
+
+    The rotation of :func:`to_parent_frame` with the link as the "child" and the world frame
+    (x, -z) as the "parent": ``x = c t + s e`` and ``-z = -s t + c e`` for the link's
+    ``t = (c, s)``, ``e = (s, -c)``; the world's xz entry is minus that frame's cross term.
+    """
+    axx, neg_axz, azz = to_parent_frame(a_tt, a_te, a_ee, c, s)
+    return axx, -neg_axz, azz
 
 
 @nb.njit(cache=True, inline="always")
