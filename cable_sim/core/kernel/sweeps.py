@@ -170,17 +170,12 @@ def woodbury_load(m: np.ndarray, mc: float, constrained: bool, locked: bool) -> 
 def link_frame(axx: float, axz: float, azz: float, c: float, s: float) -> tuple[float, float, float]:
     """``t^T A t, t^T A e, e^T A e`` of a symmetric world-frame A (xx, xz, zz).
 
-    Written so that an isotropic A (the load, ``m_c I``) gives ``t^T A e = 0`` exactly, and
-    so that A enters each product once (the trig products do not depend on the recursion:
-    one multiply of the sweep's chain instead of two).
+    The rotation of :func:`to_parent_frame` with the world frame (x, -z) as the "child"
+    (``x^T A (-z) = -axz``): ``t = c x - s (-z)``, ``e = s x + c (-z)``, i.e. relative cos/sin
+    ``c, -s``; the sign changes are exact, so this is the same arithmetic. An isotropic A (the
+    load, ``m_c I``) gives ``t^T A e = 0`` exactly.
     """
-    cc = c * c
-    ss = s * s
-    cs = c * s
-    x = axx * cc + axz * (2.0 * cs) + azz * ss
-    y = (axx - azz) * cs + axz * (ss - cc)
-    z = axx * ss - axz * (2.0 * cs) + azz * cc
-    return x, y, z
+    return to_parent_frame(axx, -axz, azz, c, -s)
 
 
 @nb.njit(cache=True, inline="always")
