@@ -169,23 +169,9 @@ class CableTf:
         self._quaternions = np.empty((4, model.n))  # rows x, y, z, w: contiguous per component
         self._axis_column = self._axis[:, None]
 
-    def moving_values(self, joint_positions: Sequence[float] | np.ndarray) -> np.ndarray:
-        """``(n + 1, 7)`` translations and quaternions of the moving joints: the numbers of
-        :func:`tf_transforms` (``include_fixed=False``), vectorised."""
-        pos = np.asarray(joint_positions, dtype=float)
-        if pos.shape != (self.model.n + 1,):
-            raise ValueError(f"joint_positions has shape {pos.shape}; the model needs "
-                             f"({self.model.n + 1},) (heave, then one relative angle per link)")
-        v = self._base.copy()
-        v[0, 2] = pos[0]
-        half = 0.5 * pos[1:]
-        v[1:, 3:6] = np.sin(half)[:, None] * self._axis
-        v[1:, 6] = np.cos(half)
-        return v
-
-    def tf(self, joint_positions: Sequence[float] | np.ndarray, stamp_ns: int) -> bytes:
-        """``/tf`` message (CDR) at a joint state (``JointState.position`` of the node): the bytes
-        of ``moving.encode(stamp_ns, moving_values(joint_positions))``, written column-wise."""
+    def _rotations(self, joint_positions: Sequence[float] | np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The joint positions (checked) and the links' quaternions ``(4, n)`` (rows x, y, z, w:
+        rotations by the relative angles about :data:`JOINT_AXIS`), in this object's scratch."""
         pos = np.asarray(joint_positions, dtype=float)
         if pos.shape != (self.model.n + 1,):
             raise ValueError(f"joint_positions has shape {pos.shape}; the model needs "
@@ -194,6 +180,22 @@ class CableTf:
         q = self._quaternions
         np.multiply(self._axis_column, np.sin(half), out=q[:3])
         np.cos(half, out=q[3])
+        return pos, q
+
+    def moving_values(self, joint_positions: Sequence[float] | np.ndarray) -> np.ndarray:
+        """``(n + 1, 7)`` translations and quaternions of the moving joints: the numbers of
+        :func:`tf_transforms` (``include_fixed=False``), vectorised."""
+        pos, q = self._rotations(joint_positions)
+        v = self._base.copy()
+        v[0, 2] = pos[0]
+        v[1:, 3:7] = q.T
+        return v
+
+    def tf(self, joint_positions: Sequence[float] | np.ndarray, stamp_ns: int) -> bytes:
+        """``/tf`` message (CDR) at a joint state (``JointState.position`` of the node): the bytes
+        of ``moving.encode(stamp_ns, moving_values(joint_positions))``, only the heave and the
+        quaternions written into the template."""
+        pos, q = self._rotations(joint_positions)
         return self.moving.encode_at(stamp_ns, ((self._heave_at, pos[0]), (self._rotation_at, q)))
 
     def tf_static(self, stamp_ns: int) -> bytes:
