@@ -316,8 +316,8 @@ def forward_dynamics(
     qdd = np.empty(k)
     lam = np.empty(2)
     arr, par = pack_arrays(model)
-    ok = fd_packed_ws(arr, par, float(inputs.heave_force), float(inputs.wave_elevation), qv, qdv,
-                      qdd, lam, fd_workspace(model.n))
+    ok = fd_packed(arr, par, float(inputs.heave_force), float(inputs.wave_elevation), qv, qdv, qdd,
+                   lam)
     if not ok:
         raise np.linalg.LinAlgError("singular anchor constraint matrix J M^-1 J^T")
     return qdd, lam
