@@ -427,10 +427,7 @@ class RunRecorder:
         try:
             closed = self._chunk.close()
         except Exception as exc:  # noqa: BLE001 - never let the writer thread die silently
-            lost = self._chunk.messages
-            self._chunk.discard()
-            self._written -= lost
-            self._dropped += lost
+            lost = self._lose_open_chunk()
             self._error(f"cannot compress a chunk ({lost} messages dropped): {exc!r}")
             return
         if closed is None:
@@ -447,6 +444,15 @@ class RunRecorder:
             self._io_error(exc)
             return
         add_chunk(self._writer, closed, start, start + closed.chunk_length)
+
+    def _lose_open_chunk(self) -> int:
+        """Empty the open chunk without writing it; its messages count as dropped, not written.
+        Returns how many they were."""
+        lost = self._chunk.messages
+        self._chunk.discard()
+        self._written -= lost
+        self._dropped += lost
+        return lost
 
     def _drop_queued(self) -> None:
         """Empty the queue after recording stopped, counting the messages in it as dropped."""
@@ -475,11 +481,7 @@ class RunRecorder:
             reason = "disk full (ENOSPC)"
         first = not self._failed
         self._failed = True
-        lost = self._chunk.messages  # the open chunk will never be written
-        if lost:
-            self._chunk.discard()
-            self._written -= lost
-            self._dropped += lost
+        self._lose_open_chunk()  # it will never be written
         self._error(f"I/O error writing {self.path}: {reason}"
                     + ("; recording stopped, further messages are dropped" if first else ""))
 
