@@ -128,6 +128,45 @@ class TfMessageEncoder:
             numbers[at] = data
         return out[: self._size].tobytes()
 
+    def buffer(self) -> TfMessageBuffer:
+        """A message of this layout kept for rewriting in place (see :class:`TfMessageBuffer`)."""
+        return TfMessageBuffer(self._template.copy(), self._sec_at, self._nsec_at, self._size)
+
+
+class TfMessageBuffer:
+    """One TFMessage of a :class:`TfMessageEncoder`'s layout, rewritten in place message after message.
+
+    For a caller that writes the same positions every time (the others keep the encoder's
+    ``base``): no template copy per message, only the stamps, the written numbers and the final
+    copy to ``bytes``. One buffer serves one thread.
+
+    Parameters
+    ----------
+    message : ndarray of uint8
+        A copy of the encoder's template (owned by the buffer from now on).
+    sec_at, nsec_at : ndarray of intp
+        uint32 word indices (in the body) of each transform's stamp.
+    size : int
+        Bytes of the message (the template is padded to whole words).
+    """
+
+    def __init__(self, message: np.ndarray, sec_at: np.ndarray, nsec_at: np.ndarray, size: int) -> None:
+        self._message = message
+        self._words = message[4:].view("<u4")
+        #: The message's float64 words (body): write the numbers at :meth:`TfMessageEncoder.positions`.
+        self.numbers = message[4:].view("<f8")
+        self._sec_at = sec_at
+        self._nsec_at = nsec_at
+        self._size = size
+
+    def tobytes(self, stamp_ns: int) -> bytes:
+        """The message with every transform stamped ``stamp_ns`` [ns] (>= 0) and the numbers
+        written so far."""
+        sec, nsec = divmod(int(stamp_ns), 1_000_000_000)
+        self._words[self._sec_at] = sec  # int32 sec >= 0: the same bits as uint32
+        self._words[self._nsec_at] = nsec
+        return self._message[: self._size].tobytes()
+
 
 def _values(transforms: Sequence[Any]) -> np.ndarray:
     return np.array([[*t[2], *t[3]] for t in transforms], dtype=float).reshape(len(transforms), 7)
@@ -162,20 +201,31 @@ class CableTf:
         self.fixed = TfMessageEncoder([(name(p), name(c)) for p, c, _, _ in fixed])
         self._fixed_values = _values(fixed)
         self._axis = np.asarray(JOINT_AXIS, dtype=float)
-        # what tf() writes per joint state (the rest is in the template): the heave and the
-        # links' quaternions (scratch: one CableTf serves one thread)
-        self._heave_at = self.moving.positions(0, 2)
-        self._rotation_at = self.moving.positions(slice(1, None), slice(3, 7)).T.copy()
         self._quaternions = np.empty((4, model.n))  # rows x, y, z, w: contiguous per component
         self._axis_column = self._axis[:, None]
+        # what tf() writes per joint state, in place (scratch: one CableTf serves one thread): the
+        # heave and the links' quaternions (x, y, z = axis * sin, signed zeros included, as
+        # tf_transforms gives them; w = cos)
+        self._tf_message = self.moving.buffer()
+        self._heave_at = self.moving.positions(0, 2)
+        self._w_at = self.moving.positions(slice(1, None), 6)
+        self._axis_at = [(self.moving.positions(slice(1, None), 3 + j), float(a))
+                         for j, a in enumerate(self._axis)]
+        self._half = np.empty(model.n)
+        self._sin = np.empty(model.n)
 
-    def _rotations(self, joint_positions: Sequence[float] | np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """The joint positions (checked) and the links' quaternions ``(4, n)`` (rows x, y, z, w:
-        rotations by the relative angles about :data:`JOINT_AXIS`), in this object's scratch."""
+    def _checked(self, joint_positions: Sequence[float] | np.ndarray) -> np.ndarray:
+        """``joint_positions`` as a float array of shape ``(n + 1,)`` (ValueError otherwise)."""
         pos = np.asarray(joint_positions, dtype=float)
         if pos.shape != (self.model.n + 1,):
             raise ValueError(f"joint_positions has shape {pos.shape}; the model needs "
                              f"({self.model.n + 1},) (heave, then one relative angle per link)")
+        return pos
+
+    def _rotations(self, joint_positions: Sequence[float] | np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The joint positions (checked) and the links' quaternions ``(4, n)`` (rows x, y, z, w:
+        rotations by the relative angles about :data:`JOINT_AXIS`), in this object's scratch."""
+        pos = self._checked(joint_positions)
         half = 0.5 * pos[1:]
         q = self._quaternions
         np.multiply(self._axis_column, np.sin(half), out=q[:3])
@@ -195,8 +245,15 @@ class CableTf:
         """``/tf`` message (CDR) at a joint state (``JointState.position`` of the node): the bytes
         of ``moving.encode(stamp_ns, moving_values(joint_positions))``, only the heave and the
         quaternions written into the template."""
-        pos, q = self._rotations(joint_positions)
-        return self.moving.encode_at(stamp_ns, ((self._heave_at, pos[0]), (self._rotation_at, q)))
+        pos = self._checked(joint_positions)
+        numbers = self._tf_message.numbers
+        half = np.multiply(pos[1:], 0.5, out=self._half)
+        s = np.sin(half, out=self._sin)
+        for at, a in self._axis_at:
+            numbers[at] = s if a == 1.0 else a * s
+        numbers[self._w_at] = np.cos(half, out=half)
+        numbers[self._heave_at] = pos[0]
+        return self._tf_message.tobytes(stamp_ns)
 
     def tf_static(self, stamp_ns: int) -> bytes:
         """``/tf_static`` message (CDR): the fixed joints."""
@@ -241,5 +298,5 @@ class TfRecording:
         self.recorder.write_serialized(TF_TOPIC, TF_TYPE, self.cable.tf(joint_positions, stamp_ns), stamp_ns)
 
 
-__all__ = ["TF_TYPE", "TF_TOPIC", "TF_STATIC_TOPIC", "TfMessageEncoder", "CableTf", "TfRecording",
-           "frame_namer"]
+__all__ = ["TF_TYPE", "TF_TOPIC", "TF_STATIC_TOPIC", "TfMessageEncoder", "TfMessageBuffer", "CableTf",
+           "TfRecording", "frame_namer"]

@@ -136,7 +136,7 @@ def record_headless(
     joint_state_rate: float = 50.0, marker_rate: float = 10.0, tension_rate: float = 50.0,
     diagnostics_rate: float = 1.0, inputs: Iterable[tuple[float, str, float]] = (),
     frame_id: str = "world", namespace: str = "", flush_period: float = 1.0,
-    chunk_size: int = 1 << 20, progress: Progress | None = None,
+    chunk_size: int | None = None, progress: Progress | None = None,
     publish: Callable[[str, Any], None] | None = None, serialize_once: bool = False,
 ) -> dict[str, Any]:
     """Simulate ``scene`` for ``duration`` s without ROS and record what the node would publish.
@@ -171,7 +171,8 @@ def record_headless(
                for rate in (joint_state_rate, marker_rate, tension_rate, diagnostics_rate)]
     k_end = int(round(duration / h))
     sched = _input_schedule(inputs, h)
-    rec: Any = (RunRecorder(path, meta, flush_period=flush_period, chunk_size=chunk_size)
+    chunking = {} if chunk_size is None else {"chunk_size": chunk_size}  # None: the recorder's default
+    rec: Any = (RunRecorder(path, meta, flush_period=flush_period, **chunking)
                 if path is not None else _NoRecorder())
     pub = _Outlet(rec, namespace, publish, serialize_once)
     t0 = time.perf_counter()

@@ -38,6 +38,12 @@ from cable_sim.ros.recorder.files import _Sink, open_new_file
 from cable_sim.ros.recorder.index import _pack_chunk_indexes, add_chunk, can_add_chunks
 from cable_sim.ros.recorder.metadata import _str_dict
 
+#: Uncompressed bytes after which the writer closes a chunk before its flush period: 4 MiB, so at
+#: the node's data rates (tens of MB/s in fast mode) chunks close a few times a second; each close
+#: hands the GIL over several times (compression and file writes release it), time the
+#: simulation thread waits.
+DEFAULT_CHUNK_SIZE = 4 << 20
+
 
 class RecorderError(RuntimeError):
     """The recording cannot be started (the message names the path and the reason)."""
@@ -92,7 +98,7 @@ class RunRecorder:
         flush_period: float = 1.0,
         logger: Any = None,
         max_queue: int = 100_000,
-        chunk_size: int = 1 << 20,
+        chunk_size: int = DEFAULT_CHUNK_SIZE,
     ) -> None:
         #: The file asked for; :attr:`path` is the one written (they differ after a name clash).
         self.requested_path = Path(path)
@@ -105,10 +111,11 @@ class RunRecorder:
             raise ValueError(f"max_queue={max_queue!r}: must be >= 1")
         self.flush_period = float(flush_period)
         #: Writer-thread idle sleep [s]: it drains the queue in batches, so the simulation thread
-        #: hands over the GIL rarely.
-        self._poll = 0.02
+        #: hands over the GIL rarely (each hand-over costs it a thread wake-up, not only the
+        #: writer's work).
+        self._poll = 0.05
         #: Queued items the writer thread handles between two looks at the clock.
-        self._batch = 1000
+        self._batch = 20_000
         self.max_queue = int(max_queue)
         self._logger = logger
         #: ``(topic, type name, data, log_time, publish_time)`` per message; a metadata record is
