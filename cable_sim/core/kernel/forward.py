@@ -64,16 +64,19 @@ import numpy as np
 from cable_sim.core.dynamics import NO_INPUT, Inputs
 from cable_sim.core.kernel.anchor import constraint_rhs
 from cable_sim.core.kernel.contact import seabed_links_nb
-from cable_sim.core.kernel.packing import pack_arrays, vec
+from cable_sim.core.kernel.packing import ARR_MK, pack_arrays, vec
 from cable_sim.core.kernel.sweeps import (
+    MK_ROWS,
+    SW_ROWS,
     add_columns,
     centre_velocity,
-    inward_sweep,
+    inward_sweep_ws,
     joint_torques,
     link_drag,
     link_trig,
     next_pin_velocity,
     outward_sweep,
+    outward_sweep_bias,
     singular_2x2,
     solve_2x2,
     woodbury_load,
@@ -171,11 +174,12 @@ def anchor_correction(
 # rows of the forward-dynamics workspace (FD_ROWS x max(n + 1, 3)): link cos/sin, joint torques,
 # applied centre forces and couples, the sweep's 1/D, h and R (three right-hand sides), the outward
 # solutions of the two unit end forces, the right-hand sides' end forces and end accelerations,
-# and four rows holding the seabed's per-link resultants and first moments ((n, 2) each)
+# four rows holding the seabed's per-link resultants and first moments ((n, 2) each), and the
+# inward sweep's scratch (:data:`cable_sim.core.kernel.sweeps.SW_ROWS` rows)
 (_F_COS, _F_SIN, _F_TAU, _F_FGX, _F_FGZ, _F_CPL, _F_DD, _F_HX, _F_HZ, _F_RR, _F_SOL, _F_BX,
- _F_BZ, _F_ENDX, _F_ENDZ, _F_BED) = (0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 12, 14, 15, 16, 17, 18)
+ _F_BZ, _F_ENDX, _F_ENDZ, _F_BED, _F_SW) = (0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 12, 14, 15, 16, 17, 18, 22)
 #: Rows of the forward-dynamics workspace (:func:`fd_workspace`).
-FD_ROWS = 22
+FD_ROWS = _F_SW + SW_ROWS
 
 
 @nb.njit(cache=True)
@@ -195,7 +199,7 @@ def fd_trig(ws: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
     return ws[_F_COS, :n], ws[_F_SIN, :n]
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, error_model="numpy")
 def fd_packed_ws(arr: np.ndarray, par: np.ndarray, u: float, eta: float, q: np.ndarray,
                  qd: np.ndarray, qdd: np.ndarray, lam: np.ndarray, ws: np.ndarray) -> bool:
     """Articulated-body forward dynamics on the packed model
@@ -213,7 +217,7 @@ def fd_packed_ws(arr: np.ndarray, par: np.ndarray, u: float, eta: float, q: np.n
     """
     n = arr.shape[1]
     l, m, mw, jk, jc, gl2, cn, ct = arr[0], arr[1], arr[2], arr[3], arr[4], arr[5], arr[6], arr[7]
-    kb, cb, mua, mut, mn, me = arr[8], arr[9], arr[10], arr[11], arr[12], arr[13]
+    kb, cb, mua, mut, me = arr[8], arr[9], arr[10], arr[11], arr[13]
     current, drag, mc, mcw, mp = par[0], int(par[1]), par[2], par[3], par[4]
     hk, hc, locked, wave, g = par[5], par[6], par[7] != 0.0, par[8] != 0.0, par[9]
     constrained, ax, az, balpha, bbeta = par[10] != 0.0, par[11], par[12], par[13], par[14]
@@ -245,8 +249,9 @@ def fd_packed_ws(arr: np.ndarray, par: np.ndarray, u: float, eta: float, q: np.n
     if nrhs == 3:
         bx[1] = -1.0  # unit external force +x on p_n: the link exerts -F on "the end"
         bz[2] = -1.0
-    azz = inward_sweep(l, mn, me, cth, sth, qd, tau, cpl, fgx, fgz, True, 0.0 if heavy else mc,
-                       bx, bz, dd, hx, hz, rr)
+    sw = ws[_F_SW:_F_SW + SW_ROWS]
+    azz = inward_sweep_ws(l, arr[ARR_MK:ARR_MK + MK_ROWS], me, cth, sth, qd, tau, cpl, fgx, fgz, True,
+                          0.0 if heavy else mc, bx, bz, dd, hx, hz, rr, sw)
     q0 = u - hk * q[0] - hc * qd[0]
     if wave:
         q0 += hk * eta
@@ -255,7 +260,7 @@ def fd_packed_ws(arr: np.ndarray, par: np.ndarray, u: float, eta: float, q: np.n
     # no joint armature here (the beta argument, dd, is not read); velocity terms in rhs 0 only;
     # rhs 0 straight into qdd, the unit end forces into the rows of sol (sol[k - 1]: rhs k)
     zdd = 0.0 if locked else (q0 - bz[0]) / (mp + azz)
-    endx[0], endz[0] = outward_sweep(l, cth, sth, qd, True, dd, False, rr[0], hx, hz, dd, zdd, qdd)
+    endx[0], endz[0] = outward_sweep_bias(sw, n, zdd, qdd)
     sol = ws[_F_SOL:_F_SOL + 2]
     for k in range(1, nrhs):
         zdd = 0.0 if locked else (0.0 - bz[k]) / (mp + azz)

@@ -17,7 +17,9 @@ import numpy as np
 from cable_sim.core.model import CableModel
 
 #: Rows of the per-link array returned by :func:`pack_arrays`.
-ARR_ROWS = 14
+ARR_ROWS = 21
+#: First of its rows holding :func:`link_constants` (7 rows).
+ARR_MK = 14
 
 _PACK_CACHE: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 _ARRAYS_CACHE: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
@@ -33,6 +35,17 @@ def vec(x: np.ndarray, size: int, name: str) -> np.ndarray:
     if a.shape != (size,):
         raise ValueError(f"{name} has shape {a.shape}; expected ({size},)")
     return a
+
+
+def link_constants(l: np.ndarray, mn: np.ndarray, me: np.ndarray) -> np.ndarray:
+    """Per-link constants of the compiled inward sweep, rows mn/3, mn/4, mn/6, mn/2, 1/l^2,
+    me/2, l^2 (``mn``, ``me``: the link masses along the normal and the axis), formed once per
+    model with the products of :func:`cable_sim.core.kernel.sweeps.fill_link_constants`."""
+    l = np.asarray(l, dtype=np.float64)
+    mn = np.asarray(mn, dtype=np.float64)
+    me = np.asarray(me, dtype=np.float64)
+    return np.stack([mn * (1.0 / 3.0), 0.25 * mn, mn * (1.0 / 6.0), 0.5 * mn, 1.0 / (l * l),
+                     0.5 * me, l * l])
 
 
 def pack(model: CableModel) -> tuple:
@@ -90,9 +103,11 @@ def pack_arrays(model: CableModel) -> tuple[np.ndarray, np.ndarray]:
 
     Returns
     -------
-    arr : ndarray (14, n)
+    arr : ndarray (21, n)
         Rows: l, m, m~, k, c, gamma l^2/4, Morison c_n, Morison c_t, seabed k_b, c_b, mu_a,
-        mu_t, normal mass m + m_an l, axial mass m + m_at l.
+        mu_t, normal mass m + m_an l, axial mass m + m_at l, then the inward sweep's per-link
+        constants from row :data:`ARR_MK` (:func:`link_constants`: mn/3, mn/4, mn/6, mn/2,
+        1/l^2, me/2, l^2).
     par : ndarray (20,)
         current, drag code, m_c, m~_c, M, k_m, c_m, heave_locked, wave_coupling, g,
         constrained, anchor x, anchor z, Baumgarte alpha, beta, end code, total length,
@@ -103,7 +118,9 @@ def pack_arrays(model: CableModel) -> tuple[np.ndarray, np.ndarray]:
     except (KeyError, TypeError):
         pass
     p = pack(model)
-    arr = np.ascontiguousarray(np.stack(p[:8] + p[25:29] + p[30:32]), dtype=np.float64)
+    base = np.stack(p[:8] + p[25:29] + p[30:32])
+    arr = np.ascontiguousarray(np.concatenate([base, link_constants(p[0], p[30], p[31])]),
+                               dtype=np.float64)
     par = np.array(
         [p[8], p[9], p[10], p[11], p[12], p[13], p[14], float(p[15]), float(p[16]), p[17],
          float(p[18]), p[19], p[20], p[21], p[22], float(model.end), float(np.sum(model.length)),

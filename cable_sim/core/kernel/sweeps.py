@@ -217,54 +217,33 @@ def relative_trig(c: float, s: float, cc: float, sc: float) -> tuple[float, floa
 
 
 @nb.njit(cache=True, inline="always")
-def articulated_inertia(
-    mn: float, me: float, x: float, y: float, z: float, xp: float
-) -> tuple[float, float, float]:
+def articulated_parts(
+    m3: float, m4: float, m6: float, me: float, x: float, y: float, z: float, xp: float
+) -> tuple[float, float, float, float, float]:
     """New articulated inertia A' = mn t t^T + me e e^T + A - h h^T / D of a link in its own
-    frame (``t^T A' t, t^T A' e, e^T A' e``); mn = me = m without added mass (then
-    A' = m I + A - h h^T / D).
+    frame, as ``(t^T A' t, t^T A' e, e^T A' e) = ixp (kp, kr, ku) + (0, 0, cu)``: returns
+    ``ixp = 1/xp, kp, kr, ku, cu`` (``m3, m4, m6`` = mn/3, mn/4, mn/6; mn = me = m without added
+    mass, then A' = m I + A - h h^T / D).
 
-    Assembled in the link frame (t, e) to avoid cancellation in the t direction; the inward
-    sweep keeps it there (its parent turns it into its own frame, :func:`to_parent_frame`).
-    ``a_tt = mn (x/3 + mn/12) / xp`` is written ``(x + mn/4) (mn/3) / xp`` and the three
-    divisions by xp as one reciprocal: one division on the sweep's chain instead of two in
-    series.
+    Assembled in the link frame (t, e) to avoid cancellation in the t direction:
+    ``a_tt = mn (x/3 + mn/12) / xp`` is written ``(x + mn/4) (mn/3) / xp``, ``a_te = -y (mn/6) / xp``,
+    ``a_ee = me + z - y^2 / xp``, the three divisions by xp as one reciprocal. The parts do not
+    wait for that division: the inward sweep turns them into the parent's frame while ``1/xp``
+    is being formed.
     """
-    ixp = 1.0 / xp
-    a_tt = (x + 0.25 * mn) * (mn * THIRD) * ixp
-    a_te = -y * (mn * SIXTH) * ixp
-    a_ee = me + z - y * y * ixp
-    return a_tt, a_te, a_ee
+    return 1.0 / xp, (x + m4) * m3, -y * m6, -(y * y), me + z
 
 
 # ---- inward sweep (tip to platform) ------------------------------------------------------------
 
 
 @nb.njit(cache=True, inline="always")
-def bias_step(
-    bx: float, bz: float, r_applied: float, fgx: float, fgz: float, li: float, mi: float,
-    c: float, s: float, w2: float, y: float, aex: float, aez: float, h_x: float, h_z: float,
-    inv_d: float,
-) -> tuple[float, float, float]:
-    """One link of the applied-force right-hand side: ``R_i`` and the new bias ``b_i``
-    (``inv_d = 1 / D_i``).
-
-    ``r_applied = -tau_i + tau_(i+1) + C_i + (l/2) t.G_i`` (couples on the link).
-    """
-    r0 = r_applied + li * li * w2 * y - li * (c * bx + s * bz)
-    rd = r0 * inv_d
-    bx += -fgx - w2 * (0.5 * mi * li * s + li * aex) + h_x * rd
-    bz += -fgz - w2 * (-0.5 * mi * li * c + li * aez) + h_z * rd
-    return r0, bx, bz
-
-
-@nb.njit(cache=True, inline="always")
 def unit_force_step(
-    bx: float, bz: float, li: float, c: float, s: float, h_x: float, h_z: float, inv_d: float
+    bx: float, bz: float, lc: float, ls: float, h_x: float, h_z: float, inv_d: float
 ) -> tuple[float, float, float]:
     """One link of a unit end-force right-hand side (no velocity, no gravity), flushed at TINY
-    (``inv_d = 1 / D_i``)."""
-    rk = -li * (c * bx + s * bz)
+    (``lc, ls = l t``; ``inv_d = 1 / D_i``)."""
+    rk = -(lc * bx + ls * bz)
     rd = rk * inv_d
     bx += h_x * rd
     bz += h_z * rd
@@ -272,6 +251,202 @@ def unit_force_step(
         bx = 0.0
         bz = 0.0
     return rk, bx, bz
+
+
+#: Rows of the per-link model constants of :func:`inward_sweep_ws`: mn/3, mn/4, mn/6, mn/2,
+#: 1/l^2, me/2, l^2 (the same as :func:`cable_sim.core.kernel.packing.link_constants`, which
+#: the packed model carries in its rows ``ARR_MK:``).
+MK_ROWS = 7
+_K_M3, _K_M4, _K_M6, _K_HM, _K_IL2, _K_HME, _K_L2 = range(MK_ROWS)
+
+#: Rows of the inward sweep's scratch (:func:`inward_sweep_ws`), each of n entries: per link
+#: (i) the trig of its angle relative to its child's (cos^2, sin^2, cos sin), l t = (l c, l s),
+#: w^2 l t, l^2 w^2, the applied couple and the bias forces' velocity-free parts, and the
+#: outputs h/D (x, z) and R/D of the applied-force right-hand side for :func:`outward_sweep_bias`.
+SW_ROWS = 14
+(_S_CC, _S_SS, _S_CS, _S_LC, _S_LS, _S_WLC, _S_WLS, _S_L2W2, _S_RA, _S_FX0, _S_FZ0, _S_GX,
+ _S_GZ, _S_RD) = range(SW_ROWS)
+
+@nb.njit(cache=True, inline="always")
+def fill_link_constants(l: np.ndarray, mn: np.ndarray, me: np.ndarray, mk: np.ndarray) -> None:
+    """The per-link model constants of :func:`inward_sweep_ws` (rows :data:`MK_ROWS`) into
+    ``mk`` (the products of :func:`cable_sim.core.kernel.packing.link_constants`)."""
+    for i in range(l.shape[0]):
+        mk[_K_M3, i] = mn[i] * THIRD
+        mk[_K_M4, i] = 0.25 * mn[i]
+        mk[_K_M6, i] = mn[i] * SIXTH
+        mk[_K_HM, i] = 0.5 * mn[i]
+        mk[_K_L2, i] = l[i] * l[i]
+        mk[_K_IL2, i] = 1.0 / (l[i] * l[i])
+        mk[_K_HME, i] = 0.5 * me[i]
+
+
+@nb.njit(cache=True, inline="always")
+def sweep_prep(
+    l: np.ndarray, mk: np.ndarray, cth: np.ndarray, sth: np.ndarray, qd: np.ndarray,
+    tau: np.ndarray, cpl: np.ndarray, fgx: np.ndarray, fgz: np.ndarray, bias: bool,
+    sc: np.ndarray,
+) -> None:
+    """The per-link factors of :func:`inward_sweep_ws` that do not depend on the recursion, in
+    short loops without a carried dependence (they vectorise) into the scratch ``sc`` (rows
+    :data:`SW_ROWS`); with ``bias`` also those of the applied-force right-hand side."""
+    n = l.shape[0]
+    lc = sc[_S_LC]
+    ls = sc[_S_LS]
+    for i in range(n):
+        lc[i] = l[i] * cth[i]
+        ls[i] = l[i] * sth[i]
+    rc = sc[_S_CC]
+    rs = sc[_S_SS]
+    rcs = sc[_S_CS]
+    for i in range(n - 1):
+        cr, sr = relative_trig(cth[i], sth[i], cth[i + 1], sth[i + 1])
+        rc[i] = cr * cr
+        rs[i] = sr * sr
+        rcs[i] = cr * sr
+    if bias:
+        wlc = sc[_S_WLC]
+        wls = sc[_S_WLS]
+        l2w2 = sc[_S_L2W2]
+        l2 = mk[_K_L2]
+        for i in range(n):
+            w2 = qd[i + 1] * qd[i + 1]
+            wlc[i] = lc[i] * w2
+            wls[i] = ls[i] * w2
+            l2w2[i] = l2[i] * w2
+        ra = sc[_S_RA]
+        for i in range(n):
+            ra[i] = -tau[i] + tau[i + 1] + cpl[i] + 0.5 * (lc[i] * fgx[i] + ls[i] * fgz[i])
+        fx0 = sc[_S_FX0]
+        fz0 = sc[_S_FZ0]
+        hme = mk[_K_HME]
+        for i in range(n):
+            fx0[i] = -fgx[i] - hme[i] * wls[i]
+            fz0[i] = -fgz[i] + hme[i] * wlc[i]
+
+
+@nb.njit(cache=True, inline="always")
+def inward_sweep_ws(
+    l: np.ndarray, mk: np.ndarray, me: np.ndarray, cth: np.ndarray, sth: np.ndarray,
+    qd: np.ndarray, tau: np.ndarray, cpl: np.ndarray, fgx: np.ndarray, fgz: np.ndarray,
+    bias: bool, mload: float, bx: np.ndarray, bz: np.ndarray, idd: np.ndarray, hx: np.ndarray,
+    hz: np.ndarray, rr: np.ndarray, sc: np.ndarray,
+) -> float:
+    """:func:`inward_sweep` with the per-link model constants ``mk`` (:data:`MK_ROWS` rows of
+    l, mn, me: :func:`fill_link_constants`, or the packed model's) on the caller's scratch
+    ``sc`` (:data:`SW_ROWS` x n or more), which also
+    receives h/D and (with ``bias``) R/D of the applied-force right-hand side for
+    :func:`outward_sweep_bias`.
+
+    The same recursion, arranged for speed (equal to round-off): the factors that do not
+    depend on the recursion are formed first in vectorised loops (:func:`sweep_prep`); the
+    child's inertia is carried as ``(p, r, u) = ixp (kp, kr, ku) + (0, 0, cu)``
+    (:func:`articulated_parts`) so that its turn into the link's frame (linear in A) overlaps
+    the division ``ixp = 1/xp``; 1/D is ``ixp / l^2``; the end forces of the first three
+    right-hand sides ride in registers.
+    """
+    n = l.shape[0]
+    nrhs = bx.shape[0]
+    sweep_prep(l, mk, cth, sth, qd, tau, cpl, fgx, fgz, bias, sc)
+    m3 = mk[_K_M3]
+    m4 = mk[_K_M4]
+    m6 = mk[_K_M6]
+    hm = mk[_K_HM]
+    il2 = mk[_K_IL2]
+    rc = sc[_S_CC]
+    rs = sc[_S_SS]
+    rcs = sc[_S_CS]
+    lcs = sc[_S_LC]
+    lss = sc[_S_LS]
+    gxs = sc[_S_GX]
+    gzs = sc[_S_GZ]
+    rds = sc[_S_RD]
+    ras = sc[_S_RA]
+    l2w2 = sc[_S_L2W2]
+    fx0 = sc[_S_FX0]
+    fz0 = sc[_S_FZ0]
+    wlcs = sc[_S_WLC]
+    wlss = sc[_S_WLS]
+    ixp = 0.0
+    kp = 0.0
+    kr = 0.0
+    ku = 0.0
+    cu = 0.0
+    b0x = bx[0] if nrhs > 0 else 0.0
+    b0z = bz[0] if nrhs > 0 else 0.0
+    b1x = bx[1] if nrhs > 1 else 0.0
+    b1z = bz[1] if nrhs > 1 else 0.0
+    b2x = bx[2] if nrhs > 2 else 0.0
+    b2z = bz[2] if nrhs > 2 else 0.0
+    for i in range(n - 1, -1, -1):
+        if i == n - 1:
+            # the load's A = mload I is isotropic (any frame)
+            x, y, z = mload, 0.0, mload
+            xp = x + m3[i]
+        else:
+            # the child's A in this link's frame (:func:`to_parent_frame`), each part turned
+            # while 1/xp of the child is being formed
+            cc = rc[i]
+            ss = rs[i]
+            cs = rcs[i]
+            tcs = 2.0 * cs
+            kx = kp * cc + (kr * tcs + ku * ss)
+            ky = (ku - kp) * cs + kr * (cc - ss)
+            kz = kp * ss - kr * tcs + ku * cc
+            cx = cu * ss
+            x = ixp * kx + cx
+            y = ixp * ky + cu * cs
+            z = ixp * kz + cu * cc
+            xp = ixp * kx + (cx + m3[i])
+        ixp = 1.0 / xp
+        inv_d = ixp * il2[i]  # 1/D = 1/(l^2 xp)
+        lc = lcs[i]
+        ls = lss[i]
+        # h = l A t + (mn l/2) t with A t = x t + y e
+        xh = x + hm[i]
+        h_x = lc * xh + ls * y
+        h_z = ls * xh - lc * y
+        idd[i] = inv_d
+        hx[i] = h_x
+        hz[i] = h_z
+        gxs[i] = h_x * inv_d
+        gzs[i] = h_z * inv_d
+        if bias:
+            # R = applied couple + l^2 w^2 t.A.e - l t.b;  b += G - w^2 l (me/2 e + A e) + h R/D
+            r0 = (ras[i] + l2w2[i] * y) - (lc * b0x + ls * b0z)
+            rd = r0 * inv_d
+            rr[0, i] = r0
+            rds[i] = rd
+            wlc = wlcs[i]
+            wls = wlss[i]
+            b0x = ((b0x + fx0[i]) - (wlc * y + wls * z)) + h_x * rd
+            b0z = ((b0z + fz0[i]) - (wls * y - wlc * z)) + h_z * rd
+        if nrhs > 1:
+            rr[1, i], b1x, b1z = unit_force_step(b1x, b1z, lc, ls, h_x, h_z, inv_d)
+            if nrhs > 2:
+                rr[2, i], b2x, b2z = unit_force_step(b2x, b2z, lc, ls, h_x, h_z, inv_d)
+                for k in range(3, nrhs):
+                    rr[k, i], bx[k], bz[k] = unit_force_step(bx[k], bz[k], lc, ls, h_x, h_z,
+                                                             inv_d)
+        ixp, kp, kr, ku, cu = articulated_parts(m3[i], m4[i], m6[i], me[i], x, y, z, xp)
+        # along a straight stretch (relative angle 0) the cross term decays geometrically
+        # (factor < 1/2 per link): flushed at TINY of the inertia, long before it turns
+        # subnormal (~100x slower arithmetic), far below round-off; tested every 16th link
+        # only (a test per link costs ~10 % of the sweep)
+        if i & 15 == 0 and abs(kr * ixp) < TINY * (abs(kp * ixp) + abs(cu + ku * ixp)):
+            kr = 0.0
+    if nrhs > 0:
+        bx[0] = b0x
+        bz[0] = b0z
+    if nrhs > 1:
+        bx[1] = b1x
+        bz[1] = b1z
+    if nrhs > 2:
+        bx[2] = b2x
+        bz[2] = b2z
+    if n == 0:
+        return mload
+    return to_world(kp * ixp, kr * ixp, cu + ku * ixp, cth[0], sth[0])[2]
 
 
 @nb.njit(cache=True, inline="always")
@@ -298,58 +473,14 @@ def inward_sweep(
 
     Each articulated inertia stays in its link's frame; the parent turns it into its own by the
     relative angle (one rotation per link on the recursion's chain instead of one out of the
-    link frame and one into the next).
+    link frame and one into the next). Runs :func:`inward_sweep_ws` on scratch of its own (the
+    forward dynamics passes its workspace and the packed model's constants instead).
     """
     n = l.shape[0]
-    nrhs = bx.shape[0]
-    # A of the child in the child's frame (p, r, u); the load's is isotropic (any frame)
-    p = mload
-    r = 0.0
-    u = mload
-    cc = 1.0
-    sc = 0.0
-    for i in range(n - 1, -1, -1):
-        c = cth[i]
-        s = sth[i]
-        li = l[i]
-        mi = mn[i]
-        if i == n - 1:
-            x, y, z = p, r, u
-        else:
-            cr, sr = relative_trig(c, s, cc, sc)
-            x, y, z = to_parent_frame(p, r, u, cr, sr)
-        cc = c
-        sc = s
-        xp = x + mi * THIRD
-        d = li * li * xp
-        # A t = x t + y e and A e = y t + z e, in world components
-        atx, atz = from_link_frame(x, y, c, s)
-        aex, aez = from_link_frame(y, z, c, s)
-        h_x = li * atx + 0.5 * mi * li * c
-        h_z = li * atz + 0.5 * mi * li * s
-        inv_d = 1.0 / d  # from the inertia recursion: off the right-hand sides' chains
-        idd[i] = inv_d
-        hx[i] = h_x
-        hz[i] = h_z
-        if bias:
-            ra = -tau[i] + tau[i + 1] + cpl[i] + 0.5 * li * (c * fgx[i] + s * fgz[i])
-            w2 = qd[i + 1] * qd[i + 1]
-            rr[0, i], bx[0], bz[0] = bias_step(
-                bx[0], bz[0], ra, fgx[i], fgz[i], li, me[i], c, s, w2, y, aex, aez, h_x, h_z,
-                inv_d,
-            )
-        for k in range(1, nrhs):
-            rr[k, i], bx[k], bz[k] = unit_force_step(bx[k], bz[k], li, c, s, h_x, h_z, inv_d)
-        p, r, u = articulated_inertia(mi, me[i], x, y, z, xp)
-        # along a straight stretch (relative angle 0) the cross term decays geometrically
-        # (factor < 1/2 per link): flushed at TINY of the inertia, long before it turns
-        # subnormal (~100x slower arithmetic), far below round-off; tested every 16th link
-        # only (a test per link costs ~10 % of the sweep)
-        if i & 15 == 0 and abs(r) < TINY * (abs(p) + abs(u)):
-            r = 0.0
-    if n == 0:
-        return mload
-    return to_world(p, r, u, cc, sc)[2]
+    mk = np.empty((MK_ROWS, n))
+    fill_link_constants(l, mn, me, mk)
+    return inward_sweep_ws(l, mk, me, cth, sth, qd, tau, cpl, fgx, fgz, bias, mload, bx, bz, idd,
+                           hx, hz, rr, np.empty((SW_ROWS, n)))
 
 
 # ---- outward sweep (platform to tip) -----------------------------------------------------------
@@ -397,6 +528,30 @@ def outward_sweep(
         else:
             apx += ltx * alpha
             apz += ltz * alpha
+    return apx, apz
+
+
+@nb.njit(cache=True, inline="always")
+def outward_sweep_bias(sc: np.ndarray, n: int, zdd: float, sol: np.ndarray) -> tuple[float, float]:
+    """:func:`outward_sweep` of the applied-force right-hand side (with the velocity terms,
+    no armature) from the factors :func:`inward_sweep_ws` (with ``bias``) left in its scratch
+    ``sc``: h/D, R/D, l t and w^2 l t (the same arithmetic). Writes ``sol = [zdd, alpha_1..n]``;
+    returns the end's acceleration."""
+    gx = sc[_S_GX]
+    gz = sc[_S_GZ]
+    rd = sc[_S_RD]
+    lc = sc[_S_LC]
+    ls = sc[_S_LS]
+    wlc = sc[_S_WLC]
+    wls = sc[_S_WLS]
+    sol[0] = zdd
+    apx = 0.0
+    apz = zdd
+    for i in range(n):
+        alpha = rd[i] - (gx[i] * apx + gz[i] * apz)
+        sol[i + 1] = alpha
+        apx = (apx - wls[i]) + lc[i] * alpha
+        apz = (apz + wlc[i]) + ls[i] * alpha
     return apx, apz
 
 
