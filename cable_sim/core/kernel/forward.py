@@ -251,7 +251,7 @@ def fd_packed_ws(arr: np.ndarray, par: np.ndarray, u: float, eta: float, q: np.n
         bz[2] = -1.0
     sw = ws[_F_SW:_F_SW + SW_ROWS]
     azz = inward_sweep_ws(l, arr[ARR_MK:ARR_MK + MK_ROWS], me, cth, sth, qd, tau, cpl, fgx, fgz, True,
-                          0.0 if heavy else mc, bx, bz, dd, hx, hz, rr, sw)
+                          0.0 if heavy else mc, bx, bz, dd, hx, hz, rr, sw, nrhs > 1)
     q0 = u - hk * q[0] - hc * qd[0]
     if wave:
         q0 += hk * eta

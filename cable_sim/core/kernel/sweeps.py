@@ -262,10 +262,11 @@ _K_M3, _K_M4, _K_M6, _K_HM, _K_IL2, _K_HME, _K_L2 = range(MK_ROWS)
 #: Rows of the inward sweep's scratch (:func:`inward_sweep_ws`), each of n entries: per link
 #: (i) the trig of its angle relative to its child's (cos^2, sin^2, cos sin), l t = (l c, l s),
 #: w^2 l t, l^2 w^2, the applied couple and the bias forces' velocity-free parts, and the
-#: outputs h/D (x, z) and R/D of the applied-force right-hand side for :func:`outward_sweep_bias`.
-SW_ROWS = 14
+#: outputs h/D (x, z) and R/D of the applied-force right-hand side, and the affine map of
+#: :func:`outward_sweep_bias` (P: xx, xz, zx, zz; v: x, z).
+SW_ROWS = 20
 (_S_CC, _S_SS, _S_CS, _S_LC, _S_LS, _S_WLC, _S_WLS, _S_L2W2, _S_RA, _S_FX0, _S_FZ0, _S_GX,
- _S_GZ, _S_RD) = range(SW_ROWS)
+ _S_GZ, _S_RD, _S_PXX, _S_PXZ, _S_PZX, _S_PZZ, _S_VX, _S_VZ) = range(SW_ROWS)
 
 @nb.njit(cache=True, inline="always")
 def fill_link_constants(l: np.ndarray, mn: np.ndarray, me: np.ndarray, mk: np.ndarray) -> None:
@@ -330,13 +331,14 @@ def inward_sweep_ws(
     l: np.ndarray, mk: np.ndarray, me: np.ndarray, cth: np.ndarray, sth: np.ndarray,
     qd: np.ndarray, tau: np.ndarray, cpl: np.ndarray, fgx: np.ndarray, fgz: np.ndarray,
     bias: bool, mload: float, bx: np.ndarray, bz: np.ndarray, idd: np.ndarray, hx: np.ndarray,
-    hz: np.ndarray, rr: np.ndarray, sc: np.ndarray,
+    hz: np.ndarray, rr: np.ndarray, sc: np.ndarray, full: bool = True,
 ) -> float:
     """:func:`inward_sweep` with the per-link model constants ``mk`` (:data:`MK_ROWS` rows of
     l, mn, me: :func:`fill_link_constants`, or the packed model's) on the caller's scratch
     ``sc`` (:data:`SW_ROWS` x n or more), which also
     receives h/D and (with ``bias``) R/D of the applied-force right-hand side for
-    :func:`outward_sweep_bias`.
+    :func:`outward_sweep_bias`. Without ``full``, ``idd``, ``hx``, ``hz`` and ``rr[0]`` are
+    not written (the caller needs only the scratch's outputs).
 
     The same recursion, arranged for speed (equal to round-off): the factors that do not
     depend on the recursion are formed first in vectorised loops (:func:`sweep_prep`); the
@@ -406,16 +408,18 @@ def inward_sweep_ws(
         xh = x + hm[i]
         h_x = lc * xh + ls * y
         h_z = ls * xh - lc * y
-        idd[i] = inv_d
-        hx[i] = h_x
-        hz[i] = h_z
+        if full:
+            idd[i] = inv_d
+            hx[i] = h_x
+            hz[i] = h_z
         gxs[i] = h_x * inv_d
         gzs[i] = h_z * inv_d
         if bias:
             # R = applied couple + l^2 w^2 t.A.e - l t.b;  b += G - w^2 l (me/2 e + A e) + h R/D
             r0 = (ras[i] + l2w2[i] * y) - (lc * b0x + ls * b0z)
             rd = r0 * inv_d
-            rr[0, i] = r0
+            if full:
+                rr[0, i] = r0
             rds[i] = rd
             wlc = wlcs[i]
             wls = wlss[i]
@@ -535,8 +539,15 @@ def outward_sweep(
 def outward_sweep_bias(sc: np.ndarray, n: int, zdd: float, sol: np.ndarray) -> tuple[float, float]:
     """:func:`outward_sweep` of the applied-force right-hand side (with the velocity terms,
     no armature) from the factors :func:`inward_sweep_ws` (with ``bias``) left in its scratch
-    ``sc``: h/D, R/D, l t and w^2 l t (the same arithmetic). Writes ``sol = [zdd, alpha_1..n]``;
-    returns the end's acceleration."""
+    ``sc``: h/D, R/D, l t and w^2 l t. Writes ``sol = [zdd, alpha_1..n]``; returns the end's
+    acceleration.
+
+    ``alpha_i = R/D - g . a_(i-1)`` (g = h/D) and ``a_i = a_(i-1) - w^2 l e + l t alpha_i``
+    make a_i affine in a_(i-1): ``a_i = P_i a_(i-1) + v_i`` with ``P = I - (l t) g^T`` and
+    ``v = (l t) R/D - w^2 l e``, formed first in a vectorised loop. The recursion's chain is
+    then a product and two sums per link (alpha_i, off the chain, from a_(i-1)); equal to
+    round-off.
+    """
     gx = sc[_S_GX]
     gz = sc[_S_GZ]
     rd = sc[_S_RD]
@@ -544,14 +555,28 @@ def outward_sweep_bias(sc: np.ndarray, n: int, zdd: float, sol: np.ndarray) -> t
     ls = sc[_S_LS]
     wlc = sc[_S_WLC]
     wls = sc[_S_WLS]
+    pxx = sc[_S_PXX]
+    pxz = sc[_S_PXZ]
+    pzx = sc[_S_PZX]
+    pzz = sc[_S_PZZ]
+    vx = sc[_S_VX]
+    vz = sc[_S_VZ]
+    for i in range(n):
+        pxx[i] = 1.0 - lc[i] * gx[i]
+        pxz[i] = -(lc[i] * gz[i])
+        pzx[i] = -(ls[i] * gx[i])
+        pzz[i] = 1.0 - ls[i] * gz[i]
+    for i in range(n):
+        vx[i] = lc[i] * rd[i] - wls[i]
+        vz[i] = ls[i] * rd[i] + wlc[i]
     sol[0] = zdd
     apx = 0.0
     apz = zdd
     for i in range(n):
-        alpha = rd[i] - (gx[i] * apx + gz[i] * apz)
-        sol[i + 1] = alpha
-        apx = (apx - wls[i]) + lc[i] * alpha
-        apz = (apz + wlc[i]) + ls[i] * alpha
+        sol[i + 1] = rd[i] - (gx[i] * apx + gz[i] * apz)
+        ax = (vx[i] + pxx[i] * apx) + pxz[i] * apz
+        apz = (vz[i] + pzz[i] * apz) + pzx[i] * apx
+        apx = ax
     return apx, apz
 
 
