@@ -11,7 +11,8 @@ import numba as nb
 import numpy as np
 
 from cable_sim.core.kernel.anchor import condition_2x2, end_drift_packed, project_packed, schur_packed
-from cable_sim.core.kernel.energy import _energy_kernel
+from cable_sim.core.kernel.energy import energy_terms
+from cable_sim.core.kernel.sweeps import link_trig
 
 #: Status codes returned by the compiled steppers and checks.
 STATUS_OK = 0
@@ -40,6 +41,22 @@ _INV24 = 1.0 / 24.0
 def check_packed(
     arr: np.ndarray, par: np.ndarray, y: np.ndarray, chk: np.ndarray, info: np.ndarray
 ) -> int:
+    """:func:`check_packed_ws` with the links' cos/sin formed here (scratch of its own).
+
+    See :func:`check_packed_ws` for the checks, ``chk`` and ``info``.
+    """
+    n = arr.shape[1]
+    trig = np.empty((2, n))
+    if par[10] == 0.0 and chk.shape[0] > 7 and np.isfinite(chk[6]):  # else not read / recomputed
+        link_trig(y, trig[0], trig[1])
+    return check_packed_ws(arr, par, y, chk, info, trig[0], trig[1])
+
+
+@nb.njit(cache=True, error_model="numpy")
+def check_packed_ws(
+    arr: np.ndarray, par: np.ndarray, y: np.ndarray, chk: np.ndarray, info: np.ndarray,
+    cth: np.ndarray, sth: np.ndarray,
+) -> int:
     """The integrator's per-step check, compiled: finite, project (anchored), drift, slack,
     Schur conditioning. ``chk = [max_drift, taut_slack, projection tol, max Schur condition,
     slack below which the Schur condition is checked]``. Modifies ``y`` (projection); on failure
@@ -60,14 +77,21 @@ def check_packed(
     increment ``d_k`` with ``|d_k| > OSC_GROWTH |d_(k-1)|`` and ``|d_k| > floor`` for
     ``OSC_STEPS`` steps in a row returns ``STATUS_OSCILLATION`` (growth factor in ``info[2]``):
     a mode growing geometrically at every step is the signature of a scheme beyond its
-    stability limit (RK4's R(z) > 1 for real z < -2.79, sign-alternating for explicit Euler). O(n)."""
+    stability limit (RK4's R(z) > 1 for real z < -2.79, sign-alternating for explicit Euler). O(n).
+
+    ``cth``, ``sth`` (length n) hold the cos/sin of the links' angles ``y[1:n+1]`` as given
+    (:func:`cable_sim.core.kernel.sweeps.link_trig`; the energy check uses them); a projection
+    (anchored end) recomputes them, so that on return they are those of the final ``y``.
+    """
     for v in y:
         if not np.isfinite(v):
             return STATUS_NONFINITE
     status = _anchor_checks(arr, par, y, chk, info)
+    if par[10] != 0.0:
+        link_trig(y, cth, sth)  # projected
     if status != STATUS_OK:
         return status
-    status = _energy_checks(arr, par, y, chk, info)
+    status = _energy_checks(arr, par, y, chk, info, cth, sth)
     if status != STATUS_OK:
         return status
     return oscillation_packed(y, chk, info)
@@ -137,7 +161,7 @@ def _anchor_checks(arr: np.ndarray, par: np.ndarray, y: np.ndarray, chk: np.ndar
 
 @nb.njit(cache=True, inline="always")
 def _energy_checks(arr: np.ndarray, par: np.ndarray, y: np.ndarray, chk: np.ndarray,
-                   info: np.ndarray) -> int:
+                   info: np.ndarray, cth: np.ndarray, sth: np.ndarray) -> int:
     """Kinetic-energy lower bound against ``chk[5]``; energy increase over a step against ``chk[7]``."""
     n1 = y.shape[0] // 2
     if chk.shape[0] > 5:
@@ -151,9 +175,9 @@ def _energy_checks(arr: np.ndarray, par: np.ndarray, y: np.ndarray, chk: np.ndar
             info[2] = tlb
             return STATUS_UNSTABLE
     if chk.shape[0] > 7 and np.isfinite(chk[6]):
-        t_kin, v_pot = _energy_kernel(arr[0], arr[1], arr[2], arr[3], par[2], par[3], par[4],
-                                      par[5], par[9], y[:n1], y[n1:], par[17] != 0.0, par[18],
-                                      arr[8])
+        t_kin, v_pot = energy_terms(arr[0], arr[1], arr[2], arr[3], par[2], par[3], par[4],
+                                    par[5], par[9], y[:n1], y[n1:], par[17] != 0.0, par[18],
+                                    arr[8], cth, sth)
         e_new = t_kin + v_pot
         if e_new - chk[6] > chk[7]:
             info[2] = e_new - chk[6]

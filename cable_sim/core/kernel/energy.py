@@ -26,6 +26,19 @@ def _energy_kernel(l: np.ndarray, m: np.ndarray, mw: np.ndarray, jk: np.ndarray,
     """Kinetic and potential energy in O(n) from link-centre velocities and heights; with a
     seabed, V includes its elastic energy sum int 1/2 k_b delta^2 ds."""
     n = l.shape[0]
+    trig = np.empty((2, n))  # the links' cos/sin in one vectorised pass first (twice as fast)
+    link_trig(q, trig[0], trig[1])
+    return energy_terms(l, m, mw, jk, mc, mcw, mp, hk, g, q, qd, seabed, zb, kb, trig[0], trig[1])
+
+
+@nb.njit(cache=True, inline="always")
+def energy_terms(l: np.ndarray, m: np.ndarray, mw: np.ndarray, jk: np.ndarray, mc: float,
+                 mcw: float, mp: float, hk: float, g: float, q: np.ndarray, qd: np.ndarray,
+                 seabed: bool, zb: float, kb: np.ndarray, cth: np.ndarray,
+                 sth: np.ndarray) -> tuple[float, float]:
+    """:func:`_energy_kernel` with the links' cos/sin at q given (``cth``, ``sth``, e.g. left by
+    the caller's :func:`cable_sim.core.kernel.sweeps.link_trig`)."""
+    n = l.shape[0]
     vx = 0.0
     vz = qd[0]
     pz = q[0]
@@ -33,12 +46,10 @@ def _energy_kernel(l: np.ndarray, m: np.ndarray, mw: np.ndarray, jk: np.ndarray,
     v_grav = 0.0
     v_spr = 0.5 * hk * q[0] * q[0]
     th_prev = 0.0
-    trig = np.empty((2, n))  # the links' cos/sin in one vectorised pass first (twice as fast)
-    link_trig(q, trig[0], trig[1])
     for i in range(n):
         li = l[i]
-        c = trig[0, i]
-        s = trig[1, i]
+        c = cth[i]
+        s = sth[i]
         w = qd[i + 1]
         vcx, vcz = centre_velocity(vx, vz, li, c, s, w, 0.0)
         t_kin += 0.5 * m[i] * (vcx * vcx + vcz * vcz) + 0.5 * (m[i] * li * li * _TWELFTH) * w * w

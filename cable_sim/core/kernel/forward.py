@@ -201,11 +201,14 @@ def fd_trig(ws: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
 
 @nb.njit(cache=True, error_model="numpy")
 def fd_packed_ws(arr: np.ndarray, par: np.ndarray, u: float, eta: float, q: np.ndarray,
-                 qd: np.ndarray, qdd: np.ndarray, lam: np.ndarray, ws: np.ndarray) -> bool:
+                 qd: np.ndarray, qdd: np.ndarray, lam: np.ndarray, ws: np.ndarray,
+                 trig_ready: bool = False) -> bool:
     """Articulated-body forward dynamics on the packed model
     (:func:`cable_sim.core.kernel.packing.pack_arrays`); writes ``qdd`` and ``lam``. ``ws`` is
     scratch from :func:`fd_workspace` (the compiled steppers allocate it once per run); its rows
-    ``_F_COS``, ``_F_SIN`` hold the links' cos/sin afterwards (:func:`fd_trig`).
+    ``_F_COS``, ``_F_SIN`` hold the links' cos/sin afterwards (:func:`fd_trig`). With
+    ``trig_ready`` they hold those at q already (the caller's
+    :func:`cable_sim.core.kernel.sweeps.link_trig` into :func:`fd_trig`) and are not recomputed.
 
     Steps: link trig, applied forces, the inward sweep (with the two unit end-force right-hand
     sides when anchored or for a heavy load), the outward sweep per right-hand side, then the
@@ -224,7 +227,8 @@ def fd_packed_ws(arr: np.ndarray, par: np.ndarray, u: float, eta: float, q: np.n
     seabed, zb, vc = par[17] != 0.0, par[18], par[19]
     cth = ws[_F_COS, :n]
     sth = ws[_F_SIN, :n]
-    link_trig(q, cth, sth)
+    if not trig_ready:
+        link_trig(q, cth, sth)
     tau = ws[_F_TAU, :n + 1]
     joint_torques(jk, jc, q, qd, tau)
     fgx = ws[_F_FGX, :n]
