@@ -20,16 +20,15 @@ from cable_sim.core.kernel.sweeps import link_trig
 
 
 @nb.njit(cache=True, inline="always")
-def _slope(arr: np.ndarray, par: np.ndarray, u: float, eta: float, ys: np.ndarray, qdd: np.ndarray,
+def _slope(arr: np.ndarray, par: np.ndarray, u: float, eta: float, ys: np.ndarray,
            lam: np.ndarray, out: np.ndarray, ws: np.ndarray, trig_ready: bool = False) -> bool:
-    """``out = [qd, qdd]`` at the state ``ys`` (``ws``: forward-dynamics workspace, holding the
-    links' cos/sin at ``ys`` already when ``trig_ready``); False if the anchor matrix is
-    singular."""
-    n1 = qdd.shape[0]
-    if not fd_packed_ws(arr, par, u, eta, ys[:n1], ys[n1:], qdd, lam, ws, trig_ready):
+    """``out = [qd, qdd]`` at the state ``ys`` (qdd written in place by the forward dynamics;
+    ``ws``: its workspace, holding the links' cos/sin at ``ys`` already when ``trig_ready``);
+    False if the anchor matrix is singular."""
+    n1 = out.shape[0] // 2
+    if not fd_packed_ws(arr, par, u, eta, ys[:n1], ys[n1:], out[n1:], lam, ws, trig_ready):
         return False
     out[:n1] = ys[n1:]
-    out[n1:] = qdd
     return True
 
 
@@ -61,7 +60,6 @@ def rk4_run(arr: np.ndarray, par: np.ndarray, h: float, u: np.ndarray, eta: np.n
     k4 = kk[3]
     ys = np.empty(n2)
     yn = np.empty(n2)
-    qdd = np.empty(n2 // 2)
     lam = np.empty(2)
     ws = fd_workspace(arr.shape[1])
     cth, sth = fd_trig(ws, arr.shape[1])
@@ -70,16 +68,16 @@ def rk4_run(arr: np.ndarray, par: np.ndarray, h: float, u: np.ndarray, eta: np.n
     h6 = h / 6
     for k in range(u.shape[0]):
         info[1] = k
-        if not _slope(arr, par, u[k, 0], eta[k, 0], y, qdd, lam, k1, ws, True):
+        if not _slope(arr, par, u[k, 0], eta[k, 0], y, lam, k1, ws, True):
             return STATUS_SINGULAR
         _axpy(y, hh, k1, ys)
-        if not _slope(arr, par, u[k, 1], eta[k, 1], ys, qdd, lam, k2, ws):
+        if not _slope(arr, par, u[k, 1], eta[k, 1], ys, lam, k2, ws):
             return STATUS_SINGULAR
         _axpy(y, hh, k2, ys)
-        if not _slope(arr, par, u[k, 1], eta[k, 1], ys, qdd, lam, k3, ws):
+        if not _slope(arr, par, u[k, 1], eta[k, 1], ys, lam, k3, ws):
             return STATUS_SINGULAR
         _axpy(y, h, k3, ys)
-        if not _slope(arr, par, u[k, 2], eta[k, 2], ys, qdd, lam, k4, ws):
+        if not _slope(arr, par, u[k, 2], eta[k, 2], ys, lam, k4, ws):
             return STATUS_SINGULAR
         for j in range(n2):
             yn[j] = y[j] + h6 * (k1[j] + 2 * k2[j] + 2 * k3[j] + k4[j])
