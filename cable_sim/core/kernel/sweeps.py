@@ -134,12 +134,10 @@ def joint_torques(jk: np.ndarray, jc: np.ndarray, q: np.ndarray, qd: np.ndarray,
     """``tau[0..n-1] = tau_1..tau_n`` of the joint springs/dampers on relative angles (joint 1
     relative to the vertical), and ``tau[n] = tau_(n+1) = 0`` (written in place, length n+1)."""
     n = jk.shape[0]
-    th_prev = 0.0
-    w_prev = 0.0
-    for i in range(n):
-        tau[i] = joint_torque(jk[i], jc[i], q[i + 1], th_prev, qd[i + 1], w_prev)
-        th_prev = q[i + 1]
-        w_prev = qd[i + 1]
+    if n > 0:
+        tau[0] = joint_torque(jk[0], jc[0], q[1], 0.0, qd[1], 0.0)
+    for i in range(1, n):  # no value carried from one joint to the next: it vectorises
+        tau[i] = joint_torque(jk[i], jc[i], q[i + 1], q[i], qd[i + 1], qd[i])
     tau[n] = 0.0
 
 
