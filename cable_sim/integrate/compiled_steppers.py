@@ -16,7 +16,7 @@ import numpy as np
 
 from cable_sim.core.kernel.checks import STATUS_OK, STATUS_SINGULAR, check_packed_ws
 from cable_sim.core.kernel.forward import fd_packed_ws, fd_trig, fd_workspace
-from cable_sim.core.kernel.sweeps import link_trig
+from cable_sim.core.kernel.links import link_trig
 
 
 @nb.njit(cache=True, inline="always")

@@ -1,4 +1,4 @@
-"""The inward sweeps' change of frame (:func:`cable_sim.core.kernel.sweeps.to_parent_frame`)
+"""The inward sweeps' change of frame (:func:`cable_sim.core.kernel.frames.to_parent_frame`)
 against the rotation of the 2x2 matrix written out with numpy: ``t^T A t, t^T A e, e^T A e``
 of a symmetric A given in another link's frame (t', e'), ``t = (cos, sin)``, ``e = (sin, -cos)``.
 """
@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from cable_sim.core.kernel.sweeps import relative_trig, to_parent_frame
+from cable_sim.core.kernel.frames import relative_trig, to_parent_frame
 
 
 def _frame(th: float) -> tuple[np.ndarray, np.ndarray]:

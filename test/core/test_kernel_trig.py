@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from cable_sim.core.kernel.sweeps import link_trig
+from cable_sim.core.kernel.links import link_trig
 from cable_sim.core.kernel.trig import LARGE
 
 

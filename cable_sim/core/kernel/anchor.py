@@ -8,7 +8,8 @@
   inward/outward sweeps as the forward dynamics, with the two unit end forces) and its
   condition number, which grows without bound as the line is pulled straight.
 
-Core layer, compiled kernel: imports numba, numpy and :mod:`cable_sim.core.kernel.sweeps`,
+Core layer, compiled kernel: imports numba, numpy, :mod:`cable_sim.core.kernel.sweeps`,
+:mod:`cable_sim.core.kernel.links`,
 :mod:`cable_sim.core.kernel.packing`, :mod:`cable_sim.core.model`.
 """
 
@@ -17,8 +18,9 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
+from cable_sim.core.kernel.links import link_trig
 from cable_sim.core.kernel.packing import pack_arrays
-from cable_sim.core.kernel.sweeps import inward_sweep, link_trig, outward_sweep, solve_2x2
+from cable_sim.core.kernel.sweeps import inward_sweep, outward_sweep, solve_2x2
 from cable_sim.core.model import CableModel
 
 

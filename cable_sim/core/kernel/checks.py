@@ -1,8 +1,8 @@
 """The integrators' per-step checks, compiled: finite, projection and drift (anchored), slack and
 Schur conditioning, kinetic-energy bound, energy jump, runaway oscillation; their status codes.
 
-Core layer, compiled kernel: imports numba, numpy, :mod:`cable_sim.core.kernel.anchor` and
-:mod:`cable_sim.core.kernel.energy`.
+Core layer, compiled kernel: imports numba, numpy, :mod:`cable_sim.core.kernel.anchor`,
+:mod:`cable_sim.core.kernel.energy` and :mod:`cable_sim.core.kernel.links`.
 """
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ import numpy as np
 
 from cable_sim.core.kernel.anchor import condition_2x2, end_drift_packed, project_packed, schur_packed
 from cable_sim.core.kernel.energy import energy_terms
-from cable_sim.core.kernel.sweeps import link_trig
+from cable_sim.core.kernel.links import link_trig
 
 #: Status codes returned by the compiled steppers and checks.
 STATUS_OK = 0
@@ -80,7 +80,7 @@ def check_packed_ws(
     stability limit (RK4's R(z) > 1 for real z < -2.79, sign-alternating for explicit Euler). O(n).
 
     ``cth``, ``sth`` (length n) hold the cos/sin of the links' angles ``y[1:n+1]`` as given
-    (:func:`cable_sim.core.kernel.sweeps.link_trig`; the energy check uses them); a projection
+    (:func:`cable_sim.core.kernel.links.link_trig`; the energy check uses them); a projection
     (anchored end) recomputes them, so that on return they are those of the final ``y``.
     """
     for v in y:

@@ -1,7 +1,7 @@
 """Kinetic and potential energy of the chain in O(n) (compiled): link-centre velocities and
 spins, platform and load; heights for gravity, relative angles for the joint springs.
 
-Core layer, compiled kernel: imports numba, numpy, the kernel's ``sweeps`` and ``packing``
+Core layer, compiled kernel: imports numba, numpy, the kernel's ``links`` and ``packing``
 and :mod:`cable_sim.core.model`.
 """
 
@@ -11,8 +11,8 @@ import numba as nb
 import numpy as np
 
 from cable_sim.core.kernel.contact import seabed_links_nb
+from cable_sim.core.kernel.links import centre_velocity, link_trig, next_pin_velocity
 from cable_sim.core.kernel.packing import pack, vec
-from cable_sim.core.kernel.sweeps import centre_velocity, link_trig, next_pin_velocity
 from cable_sim.core.model import CableModel
 
 #: 1/12 (a multiply per link instead of a division: equal to round-off).
@@ -37,7 +37,7 @@ def energy_terms(l: np.ndarray, m: np.ndarray, mw: np.ndarray, jk: np.ndarray, m
                  seabed: bool, zb: float, kb: np.ndarray, cth: np.ndarray,
                  sth: np.ndarray) -> tuple[float, float]:
     """:func:`_energy_kernel` with the links' cos/sin at q given (``cth``, ``sth``, e.g. left by
-    the caller's :func:`cable_sim.core.kernel.sweeps.link_trig`)."""
+    the caller's :func:`cable_sim.core.kernel.links.link_trig`)."""
     n = l.shape[0]
     vx = 0.0
     vz = qd[0]

@@ -51,6 +51,7 @@ All kernels take plain arrays and floats (numba cannot take the dataclass) and a
 with ``cache=True``; call :func:`warmup` once before real time starts.
 
 Core layer, compiled kernel: imports numba, numpy, :mod:`cable_sim.core.kernel.sweeps`,
+:mod:`cable_sim.core.kernel.links`,
 :mod:`cable_sim.core.kernel.anchor`, :mod:`cable_sim.core.kernel.contact`,
 :mod:`cable_sim.core.kernel.packing` and the core's
 ``dynamics`` (``Inputs``) and ``model``.
@@ -64,22 +65,24 @@ import numpy as np
 from cable_sim.core.dynamics import NO_INPUT, Inputs
 from cable_sim.core.kernel.anchor import constraint_rhs
 from cable_sim.core.kernel.contact import seabed_links_nb
+from cable_sim.core.kernel.links import (
+    centre_velocity,
+    joint_torques,
+    link_drag,
+    link_trig,
+    next_pin_velocity,
+    woodbury_load,
+)
 from cable_sim.core.kernel.packing import ARR_MK, pack_arrays, vec
 from cable_sim.core.kernel.sweeps import (
     MK_ROWS,
     SW_ROWS,
     add_columns,
-    centre_velocity,
     inward_sweep_ws,
-    joint_torques,
-    link_drag,
-    link_trig,
-    next_pin_velocity,
     outward_sweep,
     outward_sweep_bias,
     singular_2x2,
     solve_2x2,
-    woodbury_load,
 )
 from cable_sim.core.model import CableModel
 
@@ -208,7 +211,7 @@ def fd_packed_ws(arr: np.ndarray, par: np.ndarray, u: float, eta: float, q: np.n
     scratch from :func:`fd_workspace` (the compiled steppers allocate it once per run); its rows
     ``_F_COS``, ``_F_SIN`` hold the links' cos/sin afterwards (:func:`fd_trig`). With
     ``trig_ready`` they hold those at q already (the caller's
-    :func:`cable_sim.core.kernel.sweeps.link_trig` into :func:`fd_trig`) and are not recomputed.
+    :func:`cable_sim.core.kernel.links.link_trig` into :func:`fd_trig`) and are not recomputed.
 
     Steps: link trig, applied forces, the inward sweep (with the two unit end-force right-hand
     sides when anchored or for a heavy load), the outward sweep per right-hand side, then the

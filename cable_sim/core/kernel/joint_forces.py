@@ -3,7 +3,7 @@
 With a seabed, each link's contact resultant is subtracted like its drag; with added mass, the
 link's added-mass force -l A a_c (A = m_an t t^T + m_at e e^T, a_c the centre acceleration) is.
 
-Core layer, compiled kernel: imports numba, numpy, :mod:`cable_sim.core.kernel.sweeps`,
+Core layer, compiled kernel: imports numba, numpy, :mod:`cable_sim.core.kernel.links`,
 :mod:`cable_sim.core.kernel.contact`, :mod:`cable_sim.core.kernel.packing` and
 :mod:`cable_sim.core.model`.
 """
@@ -14,8 +14,8 @@ import numba as nb
 import numpy as np
 
 from cable_sim.core.kernel.contact import seabed_links_nb
+from cable_sim.core.kernel.links import centre_velocity, link_drag, link_trig_libm, next_pin_velocity
 from cable_sim.core.kernel.packing import pack_arrays, vec
-from cable_sim.core.kernel.sweeps import centre_velocity, link_drag, link_trig_libm, next_pin_velocity
 from cable_sim.core.model import CableModel
 
 #: Rows of the joint-force workspace (:func:`jf_workspace`): link cos/sin, link-centre

@@ -5,12 +5,7 @@ One implementation of each piece, used by the forward-dynamics kernel
 (:mod:`cable_sim.core.kernel.anchor`) and the implicit operator
 (:mod:`cable_sim.integrate.implicit.operator`):
 
-* link kinematics: the links' cos/sin, centre velocity relative to the water, the next pin's
-  velocity, a velocity in the link frame (``t = (cos, sin)`` normal, ``e = (sin, -cos)`` axis);
-* the Morison drag force on a link centre; the joint torques; whether the load enters by
-  Woodbury;
-* a 2x2 articulated inertia seen in the link frame and turned back to the world frame, or into
-  the parent link's frame;
+* a link's new 2x2 articulated inertia in its own frame (:func:`articulated_parts`);
 * the inward (tip to platform) sweep of the 2x2 articulated inertias (each kept in its link's
   frame: one rotation per link) and bias forces, with the unit end-force right-hand sides of
   the anchor and the heavy-load Woodbury form;
@@ -18,10 +13,13 @@ One implementation of each piece, used by the forward-dynamics kernel
   (joint "armature" coupling a link to its parent's rotation);
 * the 2x2 solve and the column update of the anchor / heavy-load correction.
 
-Every function takes plain arrays and floats (compiled with numba, ``cache=True``); the small
-per-link ones are inlined (``inline="always"``) into their callers.
+The per-link terms they use (cos/sin, velocities, drag, joint torques, the Woodbury choice) are
+in :mod:`cable_sim.core.kernel.links`, the changes of frame of a 2x2 inertia in
+:mod:`cable_sim.core.kernel.frames`. Every function takes plain arrays and floats (compiled with
+numba, ``cache=True``); the small per-link ones are inlined (``inline="always"``) into their
+callers.
 
-Core layer, compiled kernel: imports numba, numpy and :mod:`cable_sim.core.kernel.trig`.
+Core layer, compiled kernel: imports numba, numpy and :mod:`cable_sim.core.kernel.frames`.
 """
 
 from __future__ import annotations
@@ -29,7 +27,7 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from cable_sim.core.kernel.trig import LARGE, sincos
+from cable_sim.core.kernel.frames import relative_trig, to_world
 
 #: Magnitude below which the unit-force right-hand sides are flushed to zero: a unit end force
 #: on a line without tension (zero velocity and gravity in these solves) decays geometrically up
@@ -43,175 +41,7 @@ THIRD = 1.0 / 3.0
 SIXTH = 1.0 / 6.0
 
 
-# ---- link kinematics ---------------------------------------------------------------------------
-
-
-@nb.njit(cache=True, inline="always")
-def link_trig(q: np.ndarray, cth: np.ndarray, sth: np.ndarray) -> None:
-    """``cth[i], sth[i] = cos, sin`` of link i's absolute angle ``q[i + 1]``.
-
-    One vectorisable pass of :func:`cable_sim.core.kernel.trig.sincos` (2.5x faster than the
-    libm calls, within 2 ulp of them), then the libm functions for any angle beyond
-    :data:`cable_sim.core.kernel.trig.LARGE`.
-    """
-    for i in range(cth.shape[0]):
-        cth[i], sth[i] = sincos(q[i + 1])
-    for i in range(cth.shape[0]):
-        if abs(q[i + 1]) > LARGE:
-            cth[i] = np.cos(q[i + 1])
-            sth[i] = np.sin(q[i + 1])
-
-
-@nb.njit(cache=True, inline="always")
-def link_trig_libm(q: np.ndarray, cth: np.ndarray, sth: np.ndarray) -> None:
-    """:func:`link_trig` with the libm functions, numpy's cos and sin bit for bit: for results
-    compared with numpy's at a tolerance that round-off amplified by the problem would exceed
-    (a heavy load's joint forces carry the load force ``m_c a_n``, a cancellation)."""
-    for i in range(cth.shape[0]):
-        cth[i] = np.cos(q[i + 1])
-        sth[i] = np.sin(q[i + 1])
-
-
-@nb.njit(cache=True, inline="always")
-def centre_velocity(
-    vx: float, vz: float, li: float, c: float, s: float, w: float, current: float
-) -> tuple[float, float]:
-    """Velocity of a link's centre relative to the water, from its top pin's velocity."""
-    hl = 0.5 * li * w
-    return vx + hl * c - current, vz + hl * s
-
-
-@nb.njit(cache=True, inline="always")
-def next_pin_velocity(
-    vx: float, vz: float, li: float, c: float, s: float, w: float
-) -> tuple[float, float]:
-    """Velocity of a link's bottom pin from its top pin's velocity."""
-    return vx + li * c * w, vz + li * s * w
-
-
-@nb.njit(cache=True, inline="always")
-def link_frame_velocity(vx: float, vz: float, c: float, s: float) -> tuple[float, float]:
-    """Components of (vx, vz) along the link normal ``t`` and along the link axis ``e``."""
-    return vx * c + vz * s, vx * s - vz * c
-
-
-@nb.njit(cache=True, inline="always")
-def from_link_frame(vt: float, ve: float, c: float, s: float) -> tuple[float, float]:
-    """World (x, z) of ``vt t + ve e``."""
-    return vt * c + ve * s, vt * s - ve * c
-
-
-@nb.njit(cache=True, inline="always")
-def link_drag(
-    c: float, s: float, vcx: float, vcz: float, cn: float, ct: float
-) -> tuple[float, float]:
-    """Morison force on one link centre (the dense ``link_drag_forces``' formula; its
-    ``hypot`` written as the square root of the sum of squares, equal to round-off and without
-    the libm call, which halves the cost of the drag loops)."""
-    vt_mag = link_frame_velocity(vcx, vcz, c, s)[1]  # axial component, e = (s, -c)
-    vtx = vt_mag * s
-    vtz = -vt_mag * c
-    vnx = vcx - vtx
-    vnz = vcz - vtz
-    vn_mag = np.sqrt(vnx * vnx + vnz * vnz)
-    fx = -cn * vn_mag * vnx - ct * abs(vt_mag) * vtx
-    fz = -cn * vn_mag * vnz - ct * abs(vt_mag) * vtz
-    return fx, fz
-
-
-# ---- joints and load ------------------------------------------------------------------------
-
-
-@nb.njit(cache=True, inline="always")
-def joint_torque(k: float, c: float, th: float, th_prev: float, w: float, w_prev: float) -> float:
-    """Spring/damper torque of one joint on its relative angle and rate."""
-    return k * (th - th_prev) + c * (w - w_prev)
-
-
-@nb.njit(cache=True, inline="always")
-def joint_torques(jk: np.ndarray, jc: np.ndarray, q: np.ndarray, qd: np.ndarray,
-                  tau: np.ndarray) -> None:
-    """``tau[0..n-1] = tau_1..tau_n`` of the joint springs/dampers on relative angles (joint 1
-    relative to the vertical), and ``tau[n] = tau_(n+1) = 0`` (written in place, length n+1)."""
-    n = jk.shape[0]
-    if n > 0:
-        tau[0] = joint_torque(jk[0], jc[0], q[1], 0.0, qd[1], 0.0)
-    for i in range(1, n):  # no value carried from one joint to the next: it vectorises
-        tau[i] = joint_torque(jk[i], jc[i], q[i + 1], q[i], qd[i + 1], qd[i])
-    tau[n] = 0.0
-
-
-@nb.njit(cache=True, inline="always")
-def woodbury_load(m: np.ndarray, mc: float, constrained: bool, locked: bool) -> bool:
-    """Whether the terminal load enters by Woodbury rather than as ``A_(n+1) = m_c I``.
-
-    A heavy load (paper anchor: 8e8 kg) in the recursion would make the articulated inertias
-    carry m_c-sized terms whose differences are the physical answer (cancellation). A single
-    link on a locked platform keeps the direct form (``J M^-1 J^T`` is then singular; the
-    recursion is exact there).
-    """
-    n = m.shape[0]
-    if constrained or (locked and n == 1):
-        return False
-    line_mass = 0.0
-    for i in range(n):
-        line_mass += m[i]
-        if line_mass >= mc:  # masses are >= 0: the whole line is at least as heavy
-            return False
-    return True
-
-
-# ---- 2x2 articulated inertia in the link frame -------------------------------------------------
-
-
-@nb.njit(cache=True, inline="always")
-def link_frame(axx: float, axz: float, azz: float, c: float, s: float) -> tuple[float, float, float]:
-    """``t^T A t, t^T A e, e^T A e`` of a symmetric world-frame A (xx, xz, zz).
-
-    The rotation of :func:`to_parent_frame` with the world frame (x, -z) as the "child"
-    (``x^T A (-z) = -axz``): ``t = c x - s (-z)``, ``e = s x + c (-z)``, i.e. relative cos/sin
-    ``c, -s``; the sign changes are exact, so this is the same arithmetic. An isotropic A (the
-    load, ``m_c I``) gives ``t^T A e = 0`` exactly.
-    """
-    return to_parent_frame(axx, -axz, azz, c, -s)
-
-
-@nb.njit(cache=True, inline="always")
-def to_world(a_tt: float, a_te: float, a_ee: float, c: float, s: float) -> tuple[float, float, float]:
-    """World-frame (xx, xz, zz) of ``a_tt t t^T + a_te (t e^T + e t^T) + a_ee e e^T``.
-
-    The rotation of :func:`to_parent_frame` with the link as the "child" and the world frame
-    (x, -z) as the "parent": ``x = c t + s e`` and ``-z = -s t + c e`` for the link's
-    ``t = (c, s)``, ``e = (s, -c)``; the world's xz entry is minus that frame's cross term.
-    """
-    axx, neg_axz, azz = to_parent_frame(a_tt, a_te, a_ee, c, s)
-    return axx, -neg_axz, azz
-
-
-@nb.njit(cache=True, inline="always")
-def to_parent_frame(p: float, r: float, u: float, cr: float, sr: float) -> tuple[float, float, float]:
-    """``t^T A t, t^T A e, e^T A e`` in a link's frame (t, e) of a symmetric A given in its
-    child's frame (t', e') as ``p = t'^T A t', r = t'^T A e', u = e'^T A e'``.
-
-    ``cr = t.t' = e.e'`` and ``sr = t.e' = -e.t'`` are the cos/sin of the child's angle minus
-    the link's (:func:`relative_trig`): ``t = cr t' + sr e'``, ``e = -sr t' + cr e'``. An
-    isotropic A (``p = u``, ``r = 0``) gives ``t^T A e = 0`` exactly; A enters each product
-    once (the trig products do not depend on the recursion).
-    """
-    cc = cr * cr
-    ss = sr * sr
-    cs = cr * sr
-    x = p * cc + r * (2.0 * cs) + u * ss
-    y = (u - p) * cs + r * (cc - ss)
-    z = p * ss - r * (2.0 * cs) + u * cc
-    return x, y, z
-
-
-@nb.njit(cache=True, inline="always")
-def relative_trig(c: float, s: float, cc: float, sc: float) -> tuple[float, float]:
-    """cos and sin of a child link's angle minus its parent's (child ``cc, sc``, parent
-    ``c, s``)."""
-    return c * cc + s * sc, c * sc - s * cc
+# ---- articulated inertia of a link -------------------------------------------------------------
 
 
 @nb.njit(cache=True, inline="always")

@@ -6,7 +6,7 @@ exact products for ``|x|`` below ~1e9), octant ``j``, and the minimax polynomial
 ``[-pi/4, pi/4]``; the octant picks which polynomial is the sine and the signs, as selects
 rather than branches. Measured against the libm functions on 2e5 random angles per range: at
 most 2 units in the last place (absolute error <= 2.3e-16) for ``|x|`` up to 1e7; above
-:data:`LARGE` the callers use the libm functions (see :func:`cable_sim.core.kernel.sweeps.link_trig`).
+:data:`LARGE` the callers use the libm functions (see :func:`cable_sim.core.kernel.links.link_trig`).
 Non-finite angles give NaN, as the libm functions do.
 
 Core layer, compiled kernel: imports numba and numpy only.

@@ -31,7 +31,8 @@ The articulated inertia seen at a pin is then 3x3 instead of
 the 2x2 of the forward dynamics; the inward recursion (:func:`_op_inward`) is specific to it,
 everything else -- link kinematics, drag velocities, the link-frame transforms, the outward
 acceleration sweep, the Woodbury choice, the 2x2 end correction -- is the shared implementation
-of :mod:`cable_sim.core.kernel.sweeps`.
+of :mod:`cable_sim.core.kernel.links`, :mod:`cable_sim.core.kernel.frames` and
+:mod:`cable_sim.core.kernel.sweeps`.
 
 Factorisation workspace: ``W`` (``_NW`` rows of n per-link values), ``S`` (``_NS`` scalars),
 ``X`` (the two unit end-force solutions ``M~^-1 J^T``, anchored end or heavy load); the solve
@@ -47,24 +48,18 @@ import numba as nb
 import numpy as np
 
 from cable_sim.core.kernel.contact import touching_interval
-from cable_sim.core.kernel.packing import pack_arrays
-from cable_sim.core.kernel.sweeps import (
-    TINY,
-    add_columns,
+from cable_sim.core.kernel.frames import relative_trig, to_parent_frame, to_world
+from cable_sim.core.kernel.links import (
     centre_velocity,
     from_link_frame,
     joint_torque,
     link_frame_velocity,
     link_trig,
     next_pin_velocity,
-    outward_sweep,
-    relative_trig,
-    singular_2x2,
-    solve_2x2,
-    to_parent_frame,
-    to_world,
     woodbury_load,
 )
+from cable_sim.core.kernel.packing import pack_arrays
+from cable_sim.core.kernel.sweeps import TINY, add_columns, outward_sweep, singular_2x2, solve_2x2
 from cable_sim.core.model import CableModel
 
 #: 1/12 (a multiply per link instead of a division: equal to round-off).
@@ -187,7 +182,7 @@ def _op_inward(arr: np.ndarray, W: np.ndarray, mload: float, hg: float) -> float
     """The 3x3 articulated inertias ``[[c, w^T], [w, A]]``, tip to platform; fills ``1/D_i`` and
     ``u_i`` (world frame) in W and returns the platform's ``A_zz`` (see :func:`_op_factor`).
     A and w stay in each link's frame; the parent turns them into its own by the relative
-    angle (:func:`cable_sim.core.kernel.sweeps.to_parent_frame`)."""
+    angle (:func:`cable_sim.core.kernel.frames.to_parent_frame`)."""
     n = arr.shape[1]
     l = arr[0]
     m = arr[12]  # link mass seen along the normal (m + m_an l with added mass)
