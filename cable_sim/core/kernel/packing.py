@@ -5,7 +5,9 @@ Two forms, each cached per model object: :func:`pack`, a tuple of the 32 arrays 
 (``arr`` per link, ``par`` scalars) for the forward dynamics and the compiled steppers, so that
 calling one costs a handful of argument conversions instead of ~30.
 
-Core layer: imports numpy and :mod:`cable_sim.core.model` only (no numba).
+Core layer: imports numpy and :mod:`cable_sim.core.model` (no numba at import; the inward
+sweep's per-link constants are formed by :mod:`cable_sim.core.kernel.sweeps`, imported when
+a model is first packed).
 """
 
 from __future__ import annotations
@@ -40,12 +42,14 @@ def vec(x: np.ndarray, size: int, name: str) -> np.ndarray:
 def link_constants(l: np.ndarray, mn: np.ndarray, me: np.ndarray) -> np.ndarray:
     """Per-link constants of the compiled inward sweep, rows mn/3, mn/4, mn/6, mn/2, 1/l^2,
     me/2, l^2 (``mn``, ``me``: the link masses along the normal and the axis), formed once per
-    model with the products of :func:`cable_sim.core.kernel.sweeps.fill_link_constants`."""
-    l = np.asarray(l, dtype=np.float64)
-    mn = np.asarray(mn, dtype=np.float64)
-    me = np.asarray(me, dtype=np.float64)
-    return np.stack([mn * (1.0 / 3.0), 0.25 * mn, mn * (1.0 / 6.0), 0.5 * mn, 1.0 / (l * l),
-                     0.5 * me, l * l])
+    model by :func:`cable_sim.core.kernel.sweeps.fill_link_constants` (the one implementation)."""
+    from cable_sim.core.kernel.sweeps import MK_ROWS, fill_link_constants
+
+    l = np.ascontiguousarray(l, dtype=np.float64)
+    mk = np.empty((MK_ROWS, l.shape[0]))
+    fill_link_constants(l, np.ascontiguousarray(mn, dtype=np.float64),
+                        np.ascontiguousarray(me, dtype=np.float64), mk)
+    return mk
 
 
 def pack(model: CableModel) -> tuple:

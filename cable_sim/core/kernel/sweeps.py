@@ -99,7 +99,7 @@ SW_ROWS = 20
 @nb.njit(cache=True, inline="always")
 def fill_link_constants(l: np.ndarray, mn: np.ndarray, me: np.ndarray, mk: np.ndarray) -> None:
     """The per-link model constants of :func:`inward_sweep_ws` (rows :data:`MK_ROWS`) into
-    ``mk`` (the products of :func:`cable_sim.core.kernel.packing.link_constants`)."""
+    ``mk`` (also what :func:`cable_sim.core.kernel.packing.link_constants` packs into the model)."""
     for i in range(l.shape[0]):
         mk[_K_M3, i] = mn[i] * THIRD
         mk[_K_M4, i] = 0.25 * mn[i]
