@@ -11,6 +11,9 @@ tf2_msgs has no wheel here: the ``tf2_msgs/msg/TFMessage`` schema is written fro
 text (:data:`cable_sim.ros.recorder.definitions.SUPPLIED_DEFINITIONS`) and the CDR bytes by
 :class:`TfMessageEncoder` from a template (the frame names and the layout are fixed for a model;
 only the stamps and the 7 numbers per transform change), which is what a tf2_msgs publisher sends.
+The /tf messages are encoded in the recorder's writer thread, many at once
+(:meth:`CableTf.tf_many`, via :meth:`RunRecorder.write_deferred`): the simulation thread only
+queues the joint positions.
 
 Frames follow robot_state_publisher's ``frame_prefix``: with the node's ``frame_id`` =
 ``<prefix>world`` (the launch file's convention; default ``world``) every frame is
@@ -38,6 +41,31 @@ TF_TOPIC = "/tf"
 TF_STATIC_TOPIC = "/tf_static"
 #: CDR encapsulation header: plain CDR, little endian.
 _CDR_LE = b"\x00\x01\x00\x00"
+
+
+def index_runs(index: np.ndarray) -> list[tuple[slice, slice]]:
+    """``index`` (1-D, integers) as runs of constant step: ``(target, source)`` slice pairs such
+    that ``a[..., target] = v[..., source]`` for every pair does ``a[..., index] = v``.
+
+    A TFMessage's transforms lie at a constant stride while their frame names have the same
+    length (``link_1`` .. ``link_9``, ``link_10`` .. ``link_99``, ...): a few strided copies
+    instead of a gather/scatter per element when many messages are written at once.
+    """
+    idx = [int(i) for i in np.ravel(index)]
+    runs: list[tuple[slice, slice]] = []
+    a = 0
+    while a < len(idx):
+        b = a + 1
+        if b < len(idx) and idx[b] > idx[a]:
+            step = idx[b] - idx[a]
+            while b + 1 < len(idx) and idx[b + 1] - idx[b] == step:
+                b += 1
+            b += 1
+        else:
+            step = 1
+        runs.append((slice(idx[a], idx[b - 1] + 1, step), slice(a, b)))
+        a = b
+    return runs
 
 
 class TfMessageEncoder:
@@ -85,6 +113,8 @@ class TfMessageEncoder:
         self._sec_at = np.asarray(stamps, dtype=np.intp)
         self._nsec_at = self._sec_at + 1
         self._value_at = np.asarray(values, dtype=np.intp)[:, None] + np.arange(7)
+        self._sec_runs = index_runs(self._sec_at)
+        self._nsec_runs = index_runs(self._nsec_at)
         if base is not None:
             self._template[4:].view("<f8")[self._value_at] = np.asarray(base, dtype=float)
 
@@ -127,6 +157,24 @@ class TfMessageEncoder:
         for at, data in writes:
             numbers[at] = data
         return out[: self._size].tobytes()
+
+    def messages(self, count: int) -> np.ndarray:
+        """``count`` copies of the template, one message per row (padded to whole words), for
+        writing many messages at once (:meth:`CableTf.tf_many`)."""
+        return np.tile(self._template, (count, 1))
+
+    def stamp_rows(self, rows: np.ndarray, stamps_ns: np.ndarray) -> None:
+        """Stamp every transform of message ``i`` of ``rows`` (:meth:`messages`) ``stamps_ns[i]``."""
+        words = rows[:, 4:].view("<u4")
+        sec, nsec = np.divmod(stamps_ns, 1_000_000_000)
+        for at, _ in self._sec_runs:
+            words[:, at] = sec[:, None]  # int32 sec >= 0: the same bits as uint32
+        for at, _ in self._nsec_runs:
+            words[:, at] = nsec[:, None]
+
+    def rows_bytes(self, rows: np.ndarray) -> list[bytes]:
+        """The messages of ``rows`` (:meth:`messages`) as ``bytes``, one per row."""
+        return [row.tobytes() for row in rows[:, : self._size]]
 
     def buffer(self) -> TfMessageBuffer:
         """A message of this layout kept for rewriting in place (see :class:`TfMessageBuffer`)."""
@@ -211,6 +259,8 @@ class CableTf:
         self._w_at = self.moving.positions(slice(1, None), 6)
         self._axis_at = [(self.moving.positions(slice(1, None), 3 + j), float(a))
                          for j, a in enumerate(self._axis)]
+        self._axis_runs = [(index_runs(at), a) for at, a in self._axis_at]  # for tf_many
+        self._w_runs = index_runs(self._w_at)
         self._half = np.empty(model.n)
         self._sin = np.empty(model.n)
 
@@ -255,6 +305,43 @@ class CableTf:
         numbers[self._heave_at] = pos[0]
         return self._tf_message.tobytes(stamp_ns)
 
+    def tf_many(self, joint_positions: Sequence[np.ndarray], stamps_ns: Sequence[int]) -> list[bytes]:
+        """:meth:`tf` of many joint states at once (vectorised over the messages): the bytes of
+        ``[tf(p, s) for p, s in zip(joint_positions, stamps_ns)]``, what the recorder's writer
+        thread calls for the /tf messages it has gathered (:meth:`TfRecording.joint_state`).
+        Keeps no scratch: callable from another thread than :meth:`tf`.
+
+        Parameters
+        ----------
+        joint_positions : sequence of ndarray, shape (n + 1,) each
+            JointState positions (heave, then one relative angle per link).
+        stamps_ns : sequence of int
+            Stamp of each message [ns] (>= 0).
+        """
+        if len(joint_positions) == 0:
+            return []
+        pos = np.asarray(joint_positions, dtype=float)
+        if pos.ndim != 2 or pos.shape[1] != self.model.n + 1:
+            raise ValueError(f"joint_positions has shape {pos.shape}; the model needs "
+                             f"(m, {self.model.n + 1}) (heave, then one relative angle per link)")
+        stamps = np.asarray(stamps_ns, dtype=np.int64)
+        if stamps.shape != (len(pos),) or (len(stamps) and stamps.min() < 0):
+            raise ValueError(f"stamps_ns: {len(pos)} stamps >= 0 needed")
+        rows = self.moving.messages(len(pos))
+        numbers = rows[:, 4:].view("<f8")
+        half = np.multiply(pos[:, 1:], 0.5)
+        s = np.sin(half)
+        for runs, a in self._axis_runs:
+            v = s if a == 1.0 else a * s
+            for at, src in runs:
+                numbers[:, at] = v[:, src]
+        c = np.cos(half)
+        for at, src in self._w_runs:
+            numbers[:, at] = c[:, src]
+        numbers[:, self._heave_at] = pos[:, 0]
+        self.moving.stamp_rows(rows, stamps)
+        return self.moving.rows_bytes(rows)
+
     def tf_static(self, stamp_ns: int) -> bytes:
         """``/tf_static`` message (CDR): the fixed joints."""
         return self.fixed.encode(stamp_ns, self._fixed_values)
@@ -278,6 +365,7 @@ class TfRecording:
     def __init__(self, recorder: Any, model: CableModel, frame_id: str, description_topic: str) -> None:
         self.recorder = recorder
         self.cable = CableTf(model, frame_id)
+        self._encode = self.cable.tf_many  # one bound method: the writer groups by it
         self.description_topic = description_topic
         self.started = False
         from cable_sim.ros.recorder.definitions import TRANSIENT_LOCAL_QOS_YAML  # the recorder needs mcap
@@ -294,9 +382,15 @@ class TfRecording:
         self.recorder.write_serialized(TF_STATIC_TOPIC, TF_TYPE, self.cable.tf_static(stamp_ns), stamp_ns)
 
     def joint_state(self, joint_positions: Sequence[float], stamp_ns: int) -> None:
-        """Record ``/tf`` at a published joint state."""
-        self.recorder.write_serialized(TF_TOPIC, TF_TYPE, self.cable.tf(joint_positions, stamp_ns), stamp_ns)
+        """Record ``/tf`` at a published joint state: the positions (a copy) are queued, and the
+        recorder's writer thread encodes the /tf messages it has gathered at once
+        (:meth:`CableTf.tf_many`; the same bytes as :meth:`CableTf.tf`), in their place among the
+        other messages."""
+        pos = np.array(joint_positions, dtype=float)
+        if pos.shape != (self.cable.model.n + 1,):
+            self.cable._checked(pos)  # raises the ValueError that names the shapes
+        self.recorder.write_deferred(TF_TOPIC, TF_TYPE, self._encode, pos, stamp_ns)
 
 
 __all__ = ["TF_TYPE", "TF_TOPIC", "TF_STATIC_TOPIC", "TfMessageEncoder", "TfMessageBuffer", "CableTf",
-           "TfRecording", "frame_namer"]
+           "TfRecording", "frame_namer", "index_runs"]

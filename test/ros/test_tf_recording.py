@@ -73,6 +73,33 @@ def test_tf_bytes_do_not_depend_on_earlier_calls():
         assert data == bytes(enc(_tf_dict(tf_transforms(model, p, include_fixed=False))))
 
 
+@pytest.mark.parametrize("scene", ["mooring_line", "paper_free_fall"])
+def test_tf_many_gives_each_message_the_serialiser_bytes(scene):
+    """tf_many (the writer thread's batch of /tf) gives, per joint state and stamp, the bytes of a
+    serialiser built from the definition for that state's transforms, whatever the frame names'
+    lengths (``link_9``, ``link_10``, ...) and stamps."""
+    model = load_scene(scene, {"n_links": 120}).model()
+    enc = serialize_dynamic("tf2_msgs/TFMessage", message_definition("tf2_msgs/msg/TFMessage"))
+    enc = enc["tf2_msgs/TFMessage"]
+    cable = CableTf(model, "leg/world")
+    name = frame_namer("leg/world")
+    rng = np.random.default_rng(11)
+    states = [rng.normal(size=model.n + 1) * 3.0 for _ in range(4)]
+    stamps = [7_250_000_000, 0, 1_999_999_999, 3_000_000_001]
+    got = cable.tf_many(states, stamps)
+    for p, st, data in zip(states, stamps, got, strict=True):
+        want = _tf_dict([(name(a), name(b), t, q) for a, b, t, q in
+                         tf_transforms(model, p, include_fixed=False)])
+        for tf in want["transforms"]:
+            tf["header"]["stamp"] = {"sec": st // 1_000_000_000, "nanosec": st % 1_000_000_000}
+        assert data == bytes(enc(want))
+    assert cable.tf_many(states[:0], []) == []
+    with pytest.raises(ValueError):
+        cable.tf_many([states[0][1:]], [0])
+    with pytest.raises(ValueError):
+        cable.tf_many(states[:1], [-1])
+
+
 def test_frame_prefix_follows_frame_id():
     assert frame_namer("world")("link_3") == "link_3"
     assert frame_namer("leg1/world")("link_3") == "leg1/link_3"

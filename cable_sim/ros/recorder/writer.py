@@ -18,6 +18,7 @@ import sys
 import threading
 import time
 import weakref
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -119,8 +120,10 @@ class RunRecorder:
         self.max_queue = int(max_queue)
         self._logger = logger
         #: ``(topic, type name, data, log_time, publish_time)`` per message; a metadata record is
-        #: ``(None, name, dict, 0, 0)``.
+        #: ``(None, name, dict, 0, 0)``; a deferred message (:meth:`write_deferred`)
+        #: ``(topic, type name, payload, log_time, publish_time, encode)``.
         self._queue: collections.deque[tuple] = collections.deque()
+        self._deferred = False  # whether write_deferred was ever called
         self._types: dict[type, str] = {}
         self._topic_types: dict[str, str] = {}
         #: topic -> its channel, or False when the topic cannot be recorded (no definition).
@@ -189,16 +192,56 @@ class RunRecorder:
             self._dropped += 1
             return
         if len(self._queue) >= self.max_queue:
-            self._dropped += 1
-            now = time.monotonic()
-            if now - self._last_drop_log > 1.0:
-                self._last_drop_log = now
-                self._log(f"recorder queue full ({self.max_queue} messages): dropping messages "
-                          f"({self._dropped} dropped so far)")
+            self._queue_full()
             return
         lt = int(log_time_ns)
         pt = lt if publish_time_ns is None else int(publish_time_ns)
         self._queue.append((topic, type_name, data, lt, pt))
+
+    def _queue_full(self) -> None:
+        """Count a message dropped because the queue is full; log it (at most once a second)."""
+        self._dropped += 1
+        now = time.monotonic()
+        if now - self._last_drop_log > 1.0:
+            self._last_drop_log = now
+            self._log(f"recorder queue full ({self.max_queue} messages): dropping messages "
+                      f"({self._dropped} dropped so far)")
+
+    def write_deferred(
+        self, topic: str, type_name: str, encode: Callable[[list, list[int]], list[bytes]],
+        payload: Any, log_time_ns: int, publish_time_ns: int | None = None,
+    ) -> None:
+        """Record a ``type_name`` message whose CDR bytes the writer thread makes.
+
+        ``encode(payloads, log_times)`` is called in the writer thread with the payloads of all
+        queued messages that share it (in queue order) and returns their bytes, so a message
+        encoded from a few numbers (the recording's /tf at each joint state) costs the caller an
+        append and the writer one vectorised encoding per batch. The message keeps its place in
+        the recording among the others. Never blocks, never raises (see :meth:`write`); when
+        ``encode`` raises, its messages are counted dropped and the error logged.
+
+        Parameters
+        ----------
+        topic, type_name : str
+            Topic name and ``pkg/msg/Type``.
+        encode : callable
+            ``(list of payloads, list of log times [ns]) -> list of bytes``, one per payload;
+            called from the writer thread only (it may keep scratch of its own).
+        payload : object
+            What ``encode`` needs for this message; not modified afterwards by the caller.
+        log_time_ns, publish_time_ns : int
+            Timestamps [ns]; ``publish_time_ns`` defaults to ``log_time_ns``.
+        """
+        if self._closing or self._failed:
+            self._dropped += 1
+            return
+        if len(self._queue) >= self.max_queue:
+            self._queue_full()
+            return
+        lt = int(log_time_ns)
+        pt = lt if publish_time_ns is None else int(publish_time_ns)
+        self._deferred = True
+        self._queue.append((topic, type_name, payload, lt, pt, encode))
 
     def offer_qos(self, topic: str, qos_yaml: str) -> None:
         """Store ``qos_yaml`` (rosbag2's ``offered_qos_profiles`` form) for ``topic`` instead of the
@@ -306,18 +349,23 @@ class RunRecorder:
             self._drop_queued()
             return
         pop = q.popleft
+        items = [pop() for _ in range(min(batch, len(q)))]
+        if self._deferred:
+            self._encode_deferred(items)
         channels = self._channels
         add = self._chunk.add
         n = 0
         try:
-            while q and n < batch:
-                item = pop()
+            for i, item in enumerate(items):
+                if item is None:  # a deferred message that could not be encoded (counted)
+                    continue
                 topic, _tname, data, lt, pt = item
                 ch = channels.get(topic)
                 if not ch:
                     ch = self._slow_item(item)
                     if not ch:
                         if self._failed:
+                            self._drop_items(items[i + 1:])
                             self._drop_queued()
                             return
                         continue
@@ -334,12 +382,40 @@ class RunRecorder:
                     self._dirty = True  # written, not yet fsync'ed
                     self._close_chunk()
                     if self._failed:
+                        self._drop_items(items[i + 1:])
                         self._drop_queued()
                         return
         finally:
             self._written += n
             if n:
                 self._dirty = True
+
+    def _encode_deferred(self, items: list) -> None:
+        """Replace the deferred messages of ``items`` (see :meth:`write_deferred`) by ordinary
+        ones, one ``encode`` call per encoder; a message whose encoding fails becomes None (counted
+        dropped, error logged)."""
+        groups: dict[Any, list[int]] = {}
+        for i, item in enumerate(items):
+            if len(item) == 6:
+                groups.setdefault(item[5], []).append(i)
+        for encode, where in groups.items():
+            try:
+                datas = encode([items[i][2] for i in where], [items[i][3] for i in where])
+                if len(datas) != len(where):
+                    raise ValueError(f"{len(datas)} messages encoded for {len(where)}")
+            except Exception as exc:  # noqa: BLE001 - never let the writer thread die silently
+                self._dropped += len(where)
+                self._error(f"cannot encode {len(where)} messages on {items[where[0]][0]}: {exc!r}")
+                for i in where:
+                    items[i] = None
+                continue
+            for i, data in zip(where, datas, strict=True):
+                topic, tname, _payload, lt, pt, _ = items[i]
+                items[i] = (topic, tname, data, lt, pt)
+
+    def _drop_items(self, items: list) -> None:
+        """Count the messages among ``items`` (taken from the queue, not written) as dropped."""
+        self._dropped += sum(1 for item in items if item is not None and item[0] is not None)
 
     def _open_file(self) -> None:
         """Create the file (a new one, never an existing one) and its parent directories."""
