@@ -1,6 +1,6 @@
 """The compiled kernel's fast paths: the packed per-link constants, the forward dynamics with
-the links' cos/sin supplied, and the check that takes them (and recomputes them after the
-anchor's projection).
+the links' cos/sin supplied, the Morison drag in the link frame, and the check that takes the
+links' cos/sin (and recomputes them after the anchor's projection).
 
 References are independent of the path under test: numpy's own products for the constants,
 the dense O(n^3) forward dynamics (:mod:`cable_sim.core.dynamics`) for the accelerations,
@@ -15,13 +15,14 @@ import pytest
 from cable_sim.core import dynamics
 from cable_sim.core.kernel.checks import STATUS_OK, check_packed_ws
 from cable_sim.core.kernel.forward import fd_packed_ws, fd_trig, fd_workspace
+from cable_sim.core.kernel.links import morison_drag
 from cable_sim.core.kernel.packing import ARR_MK, pack_arrays
 from cable_sim.core.kernel.sweeps import MK_ROWS
 from cable_sim.scene.scenes import load_scene
 
 
-def _model(scene: str, n: int):
-    return load_scene(scene).with_links(n).model()
+def _model(scene: str, n: int, **overrides):
+    return load_scene(scene, overrides or None).with_links(n).model()
 
 
 @pytest.mark.parametrize("scene", ["paper_free_fall", "mooring_line"])
@@ -57,6 +58,43 @@ def test_fd_with_trig_supplied_matches_dense(scene: str) -> None:
     scale = np.max(np.abs(qdd_ref))
     np.testing.assert_allclose(qdd, qdd_ref, rtol=0.0, atol=1e-8 * scale)
     np.testing.assert_allclose(lam, lam_ref, rtol=1e-8, atol=1e-8 * max(np.max(np.abs(lam_ref)), 1.0))
+
+
+@pytest.mark.parametrize("current", [0.0, 0.7])
+def test_morison_drag_matches_dense(current: float) -> None:
+    """The link-frame Morison force (no square root) against the dense per-link forces
+    (``hypot`` of the normal part), on states with nearly axial and nearly normal flow."""
+    n = 12
+    model = _model("paper_free_fall", n, drag_model="morison", current_speed=current)
+    arr, par = pack_arrays(model)
+    rng = np.random.default_rng(11)
+    for _ in range(5):
+        q = np.concatenate([[0.1], rng.uniform(-3.0, 3.0, n)])
+        qd = rng.normal(scale=2.0, size=n + 1)
+        fx = np.full(n, 1.5)  # added to: start from a known value
+        fz = np.full(n, -2.0)
+        morison_drag(arr[0], arr[6], arr[7], par[0], qd, np.cos(q[1:]), np.sin(q[1:]), fx, fz,
+                     np.empty(n), np.empty(n))
+        want = dynamics.link_drag_forces(model, q, qd)
+        scale = np.max(np.abs(want))
+        assert scale > 1.0
+        np.testing.assert_allclose(fx - 1.5, want[:, 0], rtol=0.0, atol=1e-12 * scale)
+        np.testing.assert_allclose(fz + 2.0, want[:, 1], rtol=0.0, atol=1e-12 * scale)
+
+
+@pytest.mark.parametrize("drag", ["morison", "paper", "none"])
+def test_fd_drag_models_match_dense(drag: str) -> None:
+    """The forward dynamics with each drag model against the dense reference."""
+    n = 9
+    model = _model("paper_free_fall", n, drag_model=drag, current_speed=0.3)
+    arr, par = pack_arrays(model)
+    rng = np.random.default_rng(5)
+    q = np.concatenate([[0.2], rng.uniform(0.1, 2.0, n)])
+    qd = rng.normal(size=n + 1)
+    qdd, lam = np.empty(n + 1), np.empty(2)
+    assert fd_packed_ws(arr, par, 0.0, 0.0, q, qd, qdd, lam, fd_workspace(n))
+    qdd_ref, _ = dynamics.forward_dynamics(model, q, qd)
+    np.testing.assert_allclose(qdd, qdd_ref, rtol=0.0, atol=1e-9 * np.max(np.abs(qdd_ref)))
 
 
 def test_check_recomputes_trig_after_projection() -> None:

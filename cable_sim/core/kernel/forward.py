@@ -66,11 +66,9 @@ from cable_sim.core.dynamics import NO_INPUT, Inputs
 from cable_sim.core.kernel.anchor import constraint_rhs
 from cable_sim.core.kernel.contact import seabed_links_nb
 from cable_sim.core.kernel.links import (
-    centre_velocity,
     joint_torques,
-    link_drag,
     link_trig,
-    next_pin_velocity,
+    morison_drag,
     woodbury_load,
 )
 from cable_sim.core.kernel.packing import ARR_MK, pack_arrays, vec
@@ -93,10 +91,11 @@ from cable_sim.core.model import CableModel
 def applied_link_forces(
     l: np.ndarray, mw: np.ndarray, gl2: np.ndarray, cn: np.ndarray, ct: np.ndarray,
     current: float, drag: int, g: float, qd: np.ndarray, cth: np.ndarray, sth: np.ndarray,
-    fgx: np.ndarray, fgz: np.ndarray, cpl: np.ndarray,
+    fgx: np.ndarray, fgz: np.ndarray, cpl: np.ndarray, pvx: np.ndarray, pvz: np.ndarray,
 ) -> None:
     """Force on each link centre (weight - buoyancy + Morison drag) into ``fgx, fgz`` and couple
-    (paper drag) into ``cpl`` (all overwritten)."""
+    (paper drag) into ``cpl`` (all overwritten); ``pvx, pvz``: scratch of n entries (the
+    Morison drag's pin velocities, :func:`cable_sim.core.kernel.links.morison_drag`)."""
     n = l.shape[0]
     for i in range(n):
         fgx[i] = 0.0
@@ -107,14 +106,7 @@ def applied_link_forces(
             w = qd[i + 1]
             cpl[i] = -gl2[i] * w * abs(w)
     elif drag == 2:
-        vx = 0.0
-        vz = qd[0]
-        for i in range(n):
-            vcx, vcz = centre_velocity(vx, vz, l[i], cth[i], sth[i], qd[i + 1], current)
-            fx, fz = link_drag(cth[i], sth[i], vcx, vcz, cn[i], ct[i])
-            fgx[i] += fx
-            fgz[i] += fz
-            vx, vz = next_pin_velocity(vx, vz, l[i], cth[i], sth[i], qd[i + 1])
+        morison_drag(l, cn, ct, current, qd, cth, sth, fgx, fgz, pvx, pvz)
 
 
 @nb.njit(cache=True, inline="always")
@@ -177,10 +169,12 @@ def anchor_correction(
 # rows of the forward-dynamics workspace (FD_ROWS x max(n + 1, 3)): link cos/sin, joint torques,
 # applied centre forces and couples, the sweep's 1/D, h and R (three right-hand sides), the outward
 # solutions of the two unit end forces, the right-hand sides' end forces and end accelerations,
-# four rows holding the seabed's per-link resultants and first moments ((n, 2) each), and the
-# inward sweep's scratch (:data:`cable_sim.core.kernel.sweeps.SW_ROWS` rows)
+# four rows holding the seabed's per-link resultants and first moments ((n, 2) each), the Morison
+# drag's pin velocities (x, z), and the inward sweep's scratch
+# (:data:`cable_sim.core.kernel.sweeps.SW_ROWS` rows)
 (_F_COS, _F_SIN, _F_TAU, _F_FGX, _F_FGZ, _F_CPL, _F_DD, _F_HX, _F_HZ, _F_RR, _F_SOL, _F_BX,
- _F_BZ, _F_ENDX, _F_ENDZ, _F_BED, _F_SW) = (0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 12, 14, 15, 16, 17, 18, 22)
+ _F_BZ, _F_ENDX, _F_ENDZ, _F_BED, _F_PVX, _F_PVZ, _F_SW) = (0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 12, 14,
+                                                         15, 16, 17, 18, 22, 23, 24)
 #: Rows of the forward-dynamics workspace (:func:`fd_workspace`).
 FD_ROWS = _F_SW + SW_ROWS
 
@@ -242,7 +236,8 @@ def fd_packed_ws(arr: np.ndarray, par: np.ndarray, u: float, eta: float, q: np.n
     fgx = ws[_F_FGX, :n]
     fgz = ws[_F_FGZ, :n]
     cpl = ws[_F_CPL, :n]
-    applied_link_forces(l, mw, gl2, cn, ct, current, drag, g, qd, cth, sth, fgx, fgz, cpl)
+    applied_link_forces(l, mw, gl2, cn, ct, current, drag, g, qd, cth, sth, fgx, fgz, cpl,
+                        ws[_F_PVX, :n], ws[_F_PVZ, :n])
     if seabed:
         F = ws[_F_BED:_F_BED + 2].reshape(-1)[:2 * n].reshape((n, 2))
         S = ws[_F_BED + 2:_F_BED + 4].reshape(-1)[:2 * n].reshape((n, 2))
