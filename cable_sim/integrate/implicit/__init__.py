@@ -54,6 +54,11 @@ Schemes (:data:`INTEGRATORS`):
   (``ros34pw2_adaptive``, ``rtol``/``atol`` on the joint positions and velocities): the same with
   its embedded order-2 estimate and a PI step controller, stepping adaptively between fixed
   output times.
+* :class:`~cable_sim.integrate.implicit.ros34prw.Ros34PRw` (``ros34prw``) and
+  :class:`~cable_sim.integrate.implicit.ros34prw.Ros34PRwAdaptive` (``ros34prw_adaptive``): the
+  four-stage W-method ROS34PRw (Rang 2015) on the same compiled step with its own tableau:
+  order 3 for any ``W``, L-stable, stiffly accurate, the same ``gamma`` (same operator); its
+  embedded solution is of order 2 only with the exact Jacobian (W-order 1).
 
 All have a compiled fast path (system kernel ``"fast"``: the whole step, its checks and the
 projection run in numba; :meth:`advance` runs many steps in one call) and a dense fallback
@@ -62,7 +67,8 @@ reference the O(n) solve is tested against).
 
 Modules: ``operator`` (the O(n) factor, solve and product of ``M + hg D + hg^2 K``), ``run``
 (the compiled stepping loop), ``schemes`` (the integrator classes), ``ros34`` (ROS34PW2, fixed
-and adaptive, with its own compiled loops), ``dense`` (the dense reference operator and solve).
+and adaptive, with its own compiled loops, parametrised by the tableau), ``ros34prw`` (ROS34PRw,
+the same loops with another tableau), ``dense`` (the dense reference operator and solve).
 
 Integrate layer: this ``__init__`` re-exports its modules' public API; they import numba,
 numpy, :mod:`cable_sim.core` and :mod:`cable_sim.integrate.base`.
@@ -74,6 +80,7 @@ from cable_sim.integrate.implicit import dense
 from cable_sim.integrate.implicit.dense import dense_operator
 from cable_sim.integrate.implicit.operator import geometric_stiffness, operator_product, operator_solve
 from cable_sim.integrate.implicit.ros34 import Ros34PW2, Ros34PW2Adaptive
+from cable_sim.integrate.implicit.ros34prw import Ros34PRw, Ros34PRwAdaptive
 from cable_sim.integrate.implicit.schemes import INTEGRATORS, LinearlyImplicitEuler, Rosenbrock2
 
 __all__ = [
@@ -82,6 +89,8 @@ __all__ = [
     "Rosenbrock2",
     "Ros34PW2",
     "Ros34PW2Adaptive",
+    "Ros34PRw",
+    "Ros34PRwAdaptive",
     "operator_solve",
     "operator_product",
     "dense_operator",

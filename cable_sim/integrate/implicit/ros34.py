@@ -29,6 +29,10 @@ force evaluations per step. The drag part of ``D`` is linearised at the predicte
 linearised at ``v`` the first steps of a free fall treat the drag explicitly (measured at n = 80:
 unstable from 50 ms; with the prediction stable to 125 ms). Any ``W`` keeps the W-method's order.
 
+The coefficients are one :class:`RosTableau` (class attribute ``tableau``); the compiled step,
+runs and the dense reference step take them as arguments, so another four-stage W-method
+(:mod:`cable_sim.integrate.implicit.ros34prw`) is a subclass that swaps the tableau.
+
 Error norm of the adaptive scheme (:class:`Ros34PW2Adaptive`): the embedded difference,
 mapped to the joints (linearised: ``dp_j = dz e_z + sum_{i<j} l_i (cos th_i, sin th_i) dth_i``,
 likewise the joint velocities), in the max norm over joints with scale
@@ -43,6 +47,7 @@ Integrate layer: imports numba, numpy, :mod:`cable_sim.core` (dynamics, kernel, 
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numba as nb
 import numpy as np
@@ -87,16 +92,47 @@ GAMMA_IJ = np.array([
 B = np.array([2.4212380706095346e-01, -1.2232505839045147e+00, 1.5452602553351020e+00, GAMMA])
 #: Weights of the embedded order-2 solution.
 B_HAT = np.array([3.7810903145819369e-01, -9.6042292212423178e-02, 0.5, 2.1793326075422950e-01])
-#: Stage times alpha_i (fractions of h) = row sums of ALPHA.
-C_TIMES = ALPHA.sum(axis=1)
 
-_GINV = np.linalg.inv(GAMMA_IJ)
+
+class RosTableau(NamedTuple):
+    """A Rosenbrock W-method in both forms: the classical coefficients (``gamma``, ``alpha``,
+    ``gamma_ij`` with diagonal ``gamma``, weights ``b`` and embedded ``b_hat``), the stage times
+    ``c_times`` (row sums of ``alpha``) and the transformed coefficients ``a_t``, ``c_t``,
+    ``m_t``, ``e_t`` the compiled step runs on (see the module docstring). Built by
+    :func:`ros_tableau`."""
+
+    name: str
+    gamma: float
+    alpha: np.ndarray
+    gamma_ij: np.ndarray
+    b: np.ndarray
+    b_hat: np.ndarray
+    c_times: np.ndarray
+    a_t: np.ndarray
+    c_t: np.ndarray
+    m_t: np.ndarray
+    e_t: np.ndarray
+
+
+def ros_tableau(name: str, gamma: float, alpha: np.ndarray, gamma_ij: np.ndarray, b: np.ndarray,
+                b_hat: np.ndarray) -> RosTableau:
+    """The :class:`RosTableau` of a Rosenbrock W-method given in the classical form (Hairer &
+    Wanner IV.7): ``a = alpha Gamma^-1``, ``c = diag(1/gamma) - Gamma^-1``, ``m = b Gamma^-1``,
+    ``e = (b - b_hat) Gamma^-1``."""
+    ginv = np.linalg.inv(gamma_ij)
+    return RosTableau(name, float(gamma), alpha, gamma_ij, b, b_hat, alpha.sum(axis=1),
+                      alpha @ ginv, np.diag(np.diag(ginv)) - ginv, b @ ginv, (b - b_hat) @ ginv)
+
+
+#: ROS34PW2 in both forms.
+TABLEAU = ros_tableau("ROS34PW2", GAMMA, ALPHA, GAMMA_IJ, B, B_HAT)
+#: Stage times alpha_i (fractions of h) = row sums of ALPHA.
+C_TIMES = TABLEAU.c_times
 #: Transformed coefficients (see the module docstring).
-A_T = ALPHA @ _GINV
-C_T = np.diag(np.diag(_GINV)) - _GINV  # diag(1/gamma) - Gamma^-1: strictly lower
-M_T = B @ _GINV
-E_T = (B - B_HAT) @ _GINV  # error weights: y' - y_hat' = h sum_i E_T[i] s_i
-_STAGES = 4
+A_T = TABLEAU.a_t
+C_T = TABLEAU.c_t  # diag(1/gamma) - Gamma^-1: strictly lower
+M_T = TABLEAU.m_t
+E_T = TABLEAU.e_t  # error weights: y' - y_hat' = h sum_i E_T[i] s_i
 
 #: Status of the adaptive kernel when the step size fell below its floor (not a check status).
 STATUS_STEP_UNDERFLOW = 100
@@ -115,10 +151,12 @@ def _ros_step(arr: np.ndarray, par: np.ndarray, geometric: bool, predict: bool, 
               es: np.ndarray, y: np.ndarray, yn: np.ndarray, err: np.ndarray, fs: tuple,
               sq: np.ndarray, sv: np.ndarray, wk: np.ndarray, at: np.ndarray, ct: np.ndarray,
               mt: np.ndarray, et: np.ndarray, gamma: float) -> bool:
-    """One ROS34PW2 step of h from y into ``yn`` and the embedded difference into ``err``
-    (both ``2(n+1)``); ``us[i], es[i]`` are the inputs at stage i's time. Returns False when a
-    force evaluation or the factorisation is singular. ``fs`` is the factorisation's scratch
-    (:func:`cable_sim.integrate.implicit.run.factor_workspace`), ``wk`` a (9, n+1) workspace."""
+    """One step of h of the W-method with transformed coefficients ``at, ct, mt, et`` and
+    diagonal ``gamma`` (ROS34PW2's or another's, :class:`RosTableau`) from y into ``yn`` and the
+    embedded difference into ``err`` (both ``2(n+1)``); ``us[i], es[i]`` are the inputs at stage
+    i's time. Returns False when a force evaluation or the factorisation is singular. ``fs`` is
+    the factorisation's scratch (:func:`cable_sim.integrate.implicit.run.factor_workspace`),
+    ``wk`` a (9, n+1) workspace."""
     n1 = y.shape[0] // 2
     hg = gamma * h
     fw, jw, F, kgeo, W, S, X = fs
@@ -405,20 +443,23 @@ def _ros_adaptive_run(arr: np.ndarray, par: np.ndarray, geometric: bool, predict
 
 
 def _dense_ros_step(system: CableSystem, t: float, y: np.ndarray, h: float, geometric: bool,
-                    predict: bool = True) -> tuple[np.ndarray, np.ndarray]:
-    """One ROS34PW2 step with the dense ``M``, ``D``, ``K`` (reference for the O(n) path):
-    the new state and the embedded difference."""
+                    predict: bool = True, tableau: RosTableau = TABLEAU
+                    ) -> tuple[np.ndarray, np.ndarray]:
+    """One step of the Rosenbrock W-method ``tableau`` (default ROS34PW2) with the dense ``M``,
+    ``D``, ``K`` (reference for the O(n) path): the new state and the embedded difference."""
     model = system.model
     n1 = model.ndof
     q, v = y[:n1], y[n1:]
-    hg = GAMMA * h
-    sq = np.zeros((_STAGES, n1))
-    sv = np.zeros((_STAGES, n1))
+    gamma, at, ct, ctimes = tableau.gamma, tableau.a_t, tableau.c_t, tableau.c_times
+    hg = gamma * h
+    ns = at.shape[0]
+    sq = np.zeros((ns, n1))
+    sv = np.zeros((ns, n1))
     Mt = None
-    for i in range(_STAGES):
-        Yq = q + h * (A_T[i, :i] @ sq[:i])
-        Yv = v + h * (A_T[i, :i] @ sv[:i])
-        acc, lam = system.accelerations(t + C_TIMES[i] * h, np.concatenate([Yq, Yv]))
+    for i in range(ns):
+        Yq = q + h * (at[i, :i] @ sq[:i])
+        Yv = v + h * (at[i, :i] @ sv[:i])
+        acc, lam = system.accelerations(t + ctimes[i] * h, np.concatenate([Yq, Yv]))
         system.nfev += 1
         if i == 0:
             kgeo = None
@@ -427,12 +468,13 @@ def _dense_ros_step(system: CableSystem, t: float, y: np.ndarray, h: float, geom
                 kgeo = _geometric_stiffness(model, Yq, F)
             M, D, K = dense_operator(model, Yq, Yv + h * acc if predict else Yv, kgeo)
             Mt = M + hg * D + hg * hg * K
-        rq = GAMMA * (Yv + C_T[i, :i] @ sq[:i])
-        rv = GAMMA * (acc + C_T[i, :i] @ sv[:i])
+        rq = gamma * (Yv + ct[i, :i] @ sq[:i])
+        rv = gamma * (acc + ct[i, :i] @ sv[:i])
         sv[i] = rv - _dense_solve(model, q, Mt, hg * (D @ rv) + hg * (K @ (rq + hg * rv)))
         sq[i] = rq + hg * sv[i]
-    yn = np.concatenate([q + h * (M_T @ sq), v + h * (M_T @ sv)])
-    return yn, np.concatenate([h * (E_T @ sq), h * (E_T @ sv)])
+    mt, et = tableau.m_t, tableau.e_t
+    yn = np.concatenate([q + h * (mt @ sq), v + h * (mt @ sv)])
+    return yn, np.concatenate([h * (et @ sq), h * (et @ sv)])
 
 
 class Ros34PW2(Integrator):
@@ -461,7 +503,9 @@ class Ros34PW2(Integrator):
 
     name = "ros34pw2"
     order = 3
-    _fast_offsets = tuple(float(c) for c in C_TIMES)
+    #: The scheme's coefficients (a subclass with another four-stage W-method swaps only these).
+    tableau: RosTableau = TABLEAU
+    _fast_offsets = tuple(float(c) for c in TABLEAU.c_times)
 
     def __init__(self, system: CableSystem, step: float = 1e-2, geometric_stiffness: bool = True,
                  predict_drag: bool = True, **kwargs) -> None:
@@ -470,11 +514,12 @@ class Ros34PW2(Integrator):
         super().__init__(system, step=step, **kwargs)
 
     def _fast_kernel(self, arr, par, h, u, eta, y, chk, info) -> int:
-        return _ros_fixed_run(arr, par, self.geometric, self.predict, h, u, eta, y, chk, info, A_T, C_T, M_T,
-                              E_T, GAMMA)
+        tb = self.tableau
+        return _ros_fixed_run(arr, par, self.geometric, self.predict, h, u, eta, y, chk, info, tb.a_t,
+                              tb.c_t, tb.m_t, tb.e_t, tb.gamma)
 
     def _step(self, t: float, y: np.ndarray, h: float) -> np.ndarray:
-        return _dense_ros_step(self.system, t, y, h, self.geometric, self.predict)[0]
+        return _dense_ros_step(self.system, t, y, h, self.geometric, self.predict, self.tableau)[0]
 
 
 class Ros34PW2Adaptive(Ros34PW2):
@@ -545,9 +590,10 @@ class Ros34PW2Adaptive(Ros34PW2):
             return
         arr, par = fast.pack_arrays(CableModel.from_params(CableParams(n_links=2)))
         ctl = self._ctl.copy()
+        tb = self.tableau
         _ros_adaptive_run(arr, par, True, True, 0.0, 1e-3, 0.0, 1e-3, np.zeros(2), np.zeros(2),
-                          np.zeros(6), self._chk(), np.zeros(5), ctl, A_T, C_T, C_TIMES, M_T, E_T,
-                          GAMMA)
+                          np.zeros(6), self._chk(), np.zeros(5), ctl, tb.a_t, tb.c_t, tb.c_times,
+                          tb.m_t, tb.e_t, tb.gamma)
         _WARMED.add(cls)
 
     def step(self, t: float, y: np.ndarray, h: float | None = None) -> np.ndarray:
@@ -588,10 +634,11 @@ class Ros34PW2Adaptive(Ros34PW2):
         self._ctl[9] = chk[7] / span
         self._ctl[10] = (chk[10] / span) if chk.shape[0] > 10 else 0.0
         info = np.zeros(5)
+        tb = self.tableau
         try:
             status = _ros_adaptive_run(arr, par, self.geometric, self.predict, float(t), float(t_end),
-                                       float(t), float(dt), u, eta, yc, chk, info, self._ctl, A_T,
-                                       C_T, C_TIMES, M_T, E_T, GAMMA)
+                                       float(t), float(dt), u, eta, yc, chk, info, self._ctl, tb.a_t,
+                                       tb.c_t, tb.c_times, tb.m_t, tb.e_t, tb.gamma)
         finally:
             disarm(chk)
         self.nsteps += int(info[1])
@@ -627,7 +674,8 @@ class Ros34PW2Adaptive(Ros34PW2):
             while t < t_end:
                 hs, last = _clip(t, t_end, h)
                 try:
-                    yn, err = _dense_ros_step(self.system, t, y, hs, self.geometric, self.predict)
+                    yn, err = _dense_ros_step(self.system, t, y, hs, self.geometric, self.predict,
+                                              self.tableau)
                     en = err_norm(arr, y, yn, err, atol, rtol)
                 except np.linalg.LinAlgError:
                     en = np.inf
@@ -656,4 +704,5 @@ class Ros34PW2Adaptive(Ros34PW2):
         return self._accepted(y)
 
 
-__all__ = ["ALPHA", "B", "B_HAT", "GAMMA", "GAMMA_IJ", "Ros34PW2", "Ros34PW2Adaptive", "err_norm"]
+__all__ = ["ALPHA", "B", "B_HAT", "GAMMA", "GAMMA_IJ", "TABLEAU", "RosTableau", "Ros34PW2",
+           "Ros34PW2Adaptive", "err_norm", "ros_tableau"]
