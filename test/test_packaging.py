@@ -6,7 +6,11 @@ installed ``cable_sim_node`` (started by ``ros_util.start_node`` with that venv'
 runs a short scene in fast clock mode, exits by itself with code 0 and leaves a non-empty MCAP. A
 missing ``install_requires`` entry fails here with ``ModuleNotFoundError``.
 
-Slow (pip resolves and installs ~40 wheels; fast when pip's cache is warm).
+The node runs the dense kernel here: in a fresh venv the compiled kernel would first be compiled
+by numba (about 60 s, a test of numba rather than of the packaging); that the compiled modules
+import there (numba, llvmlite declared) is checked on its own.
+
+Slow (pip resolves and installs ~40 wheels, about 40 s).
 """
 
 from __future__ import annotations
@@ -81,7 +85,10 @@ def test_pip_install_into_fresh_venv_runs_node(tmp_path: Path) -> None:
     env.update(AMENT_PREFIX_PATH=str(venv), RMW_IMPLEMENTATION="rmw_fastrtps_cpp",
                ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST", ROS_DOMAIN_ID=str(random.randint(110, 200)),
                PATH=f"{venv / 'bin'}{os.pathsep}{os.environ.get('PATH', '')}")
-    node = start_node(scene, "clock_mode:=fast", "duration:=1.0", "exit_at_end:=true",
+    r = _run([py, "-c", "import cable_sim.core.kernel, cable_sim.integrate.implicit, "
+                        "cable_sim.integrate.compiled_steppers"], timeout=300, env=env, cwd=tmp_path)
+    assert r.returncode == 0, r.stdout[-4000:]
+    node = start_node(scene, "kernel:=dense", "clock_mode:=fast", "duration:=1.0", "exit_at_end:=true",
                       f"record_path:={bag}", executable=venv / "bin" / "cable_sim_node", env=env,
                       domain=int(env["ROS_DOMAIN_ID"]), cwd=tmp_path)
     try:
