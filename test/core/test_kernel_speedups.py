@@ -60,6 +60,23 @@ def test_fd_with_trig_supplied_matches_dense(scene: str) -> None:
     np.testing.assert_allclose(lam, lam_ref, rtol=1e-8, atol=1e-8 * max(np.max(np.abs(lam_ref)), 1.0))
 
 
+@pytest.mark.parametrize(("scene", "overrides", "heavy"), [
+    ("paper_free_fall", {}, False),  # 60 kg load under a 148 kg line
+    ("paper_free_fall", {"load_mass": 500.0}, True),
+    ("paper_anchored_forced", {"end_condition": "paper_anchor"}, True),  # 8e8 kg
+    ("mooring_line", {}, False),  # anchored: the Schur complement instead
+])
+def test_packed_woodbury_choice(scene: str, overrides: dict, heavy: bool) -> None:
+    """The Woodbury choice packed once per model (``par[20]``): a free end whose load outweighs
+    the line (the forward dynamics of both forms is compared with the dense reference in
+    ``test_fast_kernel``)."""
+    n = 8
+    model = _model(scene, n, **overrides)
+    _, par = pack_arrays(model)
+    assert (par[20] != 0.0) == heavy
+    assert heavy == (not model.constrained and model.load_mass > float(np.sum(model.mass)))
+
+
 @pytest.mark.parametrize("current", [0.0, 0.7])
 def test_morison_drag_matches_dense(current: float) -> None:
     """The link-frame Morison force (no square root) against the dense per-link forces

@@ -69,7 +69,6 @@ from cable_sim.core.kernel.links import (
     joint_torques,
     link_trig,
     morison_drag,
-    woodbury_load,
 )
 from cable_sim.core.kernel.packing import ARR_MK, pack_arrays, vec
 from cable_sim.core.kernel.sweeps import (
@@ -221,12 +220,12 @@ def fd_packed_ws(arr: np.ndarray, par: np.ndarray, u: float, eta: float, q: np.n
     NaN/Inf, which the blow-up detection relies on).
     """
     n = arr.shape[1]
-    l, m, mw, jk, jc, gl2, cn, ct = arr[0], arr[1], arr[2], arr[3], arr[4], arr[5], arr[6], arr[7]
+    l, mw, jk, jc, gl2, cn, ct = arr[0], arr[2], arr[3], arr[4], arr[5], arr[6], arr[7]
     kb, cb, mua, mut, me = arr[8], arr[9], arr[10], arr[11], arr[13]
     current, drag, mc, mcw, mp = par[0], int(par[1]), par[2], par[3], par[4]
     hk, hc, locked, wave, g = par[5], par[6], par[7] != 0.0, par[8] != 0.0, par[9]
     constrained, ax, az, balpha, bbeta = par[10] != 0.0, par[11], par[12], par[13], par[14]
-    seabed, zb, vc = par[17] != 0.0, par[18], par[19]
+    seabed, zb, vc, heavy = par[17] != 0.0, par[18], par[19], par[20] != 0.0
     cth = ws[_F_COS, :n]
     sth = ws[_F_SIN, :n]
     if not trig_ready:
@@ -242,7 +241,6 @@ def fd_packed_ws(arr: np.ndarray, par: np.ndarray, u: float, eta: float, q: np.n
         F = ws[_F_BED:_F_BED + 2].reshape(-1)[:2 * n].reshape((n, 2))
         S = ws[_F_BED + 2:_F_BED + 4].reshape(-1)[:2 * n].reshape((n, 2))
         add_seabed_loads(l, zb, kb, cb, mua, mut, vc, q, qd, cth, sth, fgx, fgz, cpl, F, S)
-    heavy = woodbury_load(m, mc, constrained, locked)
     nrhs = 3 if (constrained or heavy) else 1
     dd = ws[_F_DD, :n]
     hx = ws[_F_HX, :n]

@@ -6,8 +6,9 @@ Two forms, each cached per model object: :func:`pack`, a tuple of the 32 arrays 
 calling one costs a handful of argument conversions instead of ~30.
 
 Core layer: imports numpy and :mod:`cable_sim.core.model` (no numba at import; the inward
-sweep's per-link constants are formed by :mod:`cable_sim.core.kernel.sweeps`, imported when
-a model is first packed).
+sweep's per-link constants and the Woodbury choice are formed by
+:mod:`cable_sim.core.kernel.sweeps` and :mod:`cable_sim.core.kernel.links`, imported when a
+model is first packed).
 """
 
 from __future__ import annotations
@@ -112,23 +113,28 @@ def pack_arrays(model: CableModel) -> tuple[np.ndarray, np.ndarray]:
         mu_t, normal mass m + m_an l, axial mass m + m_at l, then the inward sweep's per-link
         constants from row :data:`ARR_MK` (:func:`link_constants`: mn/3, mn/4, mn/6, mn/2,
         1/l^2, me/2, l^2).
-    par : ndarray (20,)
+    par : ndarray (21,)
         current, drag code, m_c, m~_c, M, k_m, c_m, heave_locked, wave_coupling, g,
         constrained, anchor x, anchor z, Baumgarte alpha, beta, end code, total length,
-        seabed on, seabed z, friction speed v_c.
+        seabed on, seabed z, friction speed v_c, and whether the load enters the forward
+        dynamics by Woodbury (:func:`cable_sim.core.kernel.links.woodbury_load`, decided once
+        per model here rather than per call).
     """
     try:
         return _ARRAYS_CACHE[model]
     except (KeyError, TypeError):
         pass
+    from cable_sim.core.kernel.links import woodbury_load
+
     p = pack(model)
+    heavy = woodbury_load(p[1], p[10], p[18], p[15])
     base = np.stack(p[:8] + p[25:29] + p[30:32])
     arr = np.ascontiguousarray(np.concatenate([base, link_constants(p[0], p[30], p[31])]),
                                dtype=np.float64)
     par = np.array(
         [p[8], p[9], p[10], p[11], p[12], p[13], p[14], float(p[15]), float(p[16]), p[17],
          float(p[18]), p[19], p[20], p[21], p[22], float(model.end), float(np.sum(model.length)),
-         float(p[23]), p[24], p[29]],
+         float(p[23]), p[24], p[29], float(heavy)],
         dtype=np.float64,
     )
     try:
