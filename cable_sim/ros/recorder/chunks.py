@@ -1,11 +1,12 @@
 """Lean MCAP chunk builder: per message the recorder does one ``struct.pack`` and four appends.
 
 The writer thread of :class:`~cable_sim.ros.recorder.writer.RunRecorder` adds every message as
-an MCAP *Message* record (opcode 0x05): its packed head and its data (not copied) go to a list,
-its ``(log_time, offset)`` to the channel's message index; when the chunk is closed (size limit
-or flush period) :meth:`ChunkBuilder.close` joins the records (one copy), compresses them once
-(zstd / lz4; both release the GIL) and packs the *Chunk* record (0x06) and one *MessageIndex*
-record (0x07) per channel. The mcap
+an MCAP *Message* record (opcode 0x05): its packed head and its data are appended to the chunk's
+buffer (a ``bytearray``: one small copy per message, spread over the writer's batches, instead of
+one join of the whole chunk at its close, a copy of megabytes that holds the GIL), its
+``(log_time, offset)`` to the channel's message index; when the chunk is closed (size limit or
+flush period) :meth:`ChunkBuilder.close` compresses the buffer once (zstd / lz4; both release the
+GIL) and packs the *Chunk* record (0x06) and one *MessageIndex* record (0x07) per channel. The mcap
 package's ``Writer.add_message`` does the same through a dataclass per message and a
 ``BytesIO``-based builder, several microseconds of Python per message under the GIL (the time the
 simulation thread loses while recording).
@@ -160,17 +161,20 @@ class ChunkBuilder:
         Compression of the chunk records (see :func:`compressor`).
     """
 
-    __slots__ = ("parts", "size", "channels", "chunk_size", "_name", "_compress")
+    __slots__ = ("records", "channels", "chunk_size", "_name", "_compress")
 
     def __init__(self, chunk_size: int = 1 << 20, compression: str = "zstd") -> None:
         self._name, self._compress = compressor(compression)
         self.chunk_size = int(chunk_size)
-        #: Message records of the open chunk: head, data, head, data, ...
-        self.parts: list[bytes] = []
-        #: Bytes of the records in :attr:`parts`.
-        self.size = 0
+        #: Message records of the open chunk, as they will be stored (uncompressed).
+        self.records = bytearray()
         #: Channels with messages in the open chunk, in order of their first message.
         self.channels: list[ChannelState] = []
+
+    @property
+    def size(self) -> int:
+        """Bytes of the records in the open chunk."""
+        return len(self.records)
 
     @property
     def messages(self) -> int:
@@ -185,27 +189,25 @@ class ChunkBuilder:
         """
         if data.__class__ is not bytes:
             data = bytes(data)  # a snapshot of a mutable buffer; TypeError for a str
-        off = self.size
-        n = len(data)
-        head = _MESSAGE_HEAD.pack(OP_MESSAGE, MESSAGE_BODY_HEAD + n, ch.id,
+        records = self.records
+        off = len(records)
+        head = _MESSAGE_HEAD.pack(OP_MESSAGE, MESSAGE_BODY_HEAD + len(data), ch.id,
                                   ch.count & _SEQUENCE_MASK, log_time, publish_time)
-        parts = self.parts
-        parts.append(head)
-        parts.append(data)
         e = ch.entries
         if not e:
             self.channels.append(ch)
         e.append(log_time)
         e.append(off)
+        records += head
+        records += data
         ch.count += 1
-        self.size = off = off + _MESSAGE_HEAD.size + n
-        return off >= self.chunk_size
+        return len(records) >= self.chunk_size
 
     def close(self) -> ClosedChunk | None:
         """Pack the Chunk and MessageIndex records and empty the builder (None if no message)."""
         if not self.channels:
             return None
-        raw = b"".join(self.parts)
+        raw = self.records  # no longer grown: discard() below gives the builder a new buffer
         if self._compress is None:
             stored, crc = raw, zlib.crc32(raw)
         else:  # the compressed frame carries its own content checksum (see compressor)
@@ -245,7 +247,6 @@ class ChunkBuilder:
         chans = self.channels
         for ch in chans:
             ch.entries = array("Q")
-        self.parts = []
-        self.size = 0
+        self.records = bytearray()
         self.channels = []
         return chans

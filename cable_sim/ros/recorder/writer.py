@@ -39,11 +39,12 @@ from cable_sim.ros.recorder.files import _Sink, open_new_file
 from cable_sim.ros.recorder.index import _pack_chunk_indexes, add_chunk, can_add_chunks
 from cable_sim.ros.recorder.metadata import _str_dict
 
-#: Uncompressed bytes after which the writer closes a chunk before its flush period: 4 MiB, so at
-#: the node's data rates (tens of MB/s in fast mode) chunks close a few times a second; each close
-#: hands the GIL over several times (compression and file writes release it), time the
-#: simulation thread waits.
-DEFAULT_CHUNK_SIZE = 4 << 20
+#: Uncompressed bytes after which the writer closes a chunk before its flush period: 16 MiB, so at
+#: the node's data rates (10-20 MB/s in fast mode at n = 80) a chunk usually closes at the flush
+#: period, about once a second: each close hands the GIL back and forth several times
+#: (compression, file writes and fsync release it), and every hand-over costs the simulation
+#: thread a thread wake-up, on a loaded machine up to a scheduler time slice.
+DEFAULT_CHUNK_SIZE = 16 << 20
 
 
 class RecorderError(RuntimeError):
@@ -113,8 +114,8 @@ class RunRecorder:
         self.flush_period = float(flush_period)
         #: Writer-thread idle sleep [s]: it drains the queue in batches, so the simulation thread
         #: hands over the GIL rarely (each hand-over costs it a thread wake-up, not only the
-        #: writer's work).
-        self._poll = 0.05
+        #: writer's work): four times per flush period, at most every 0.25 s.
+        self._poll = min(0.25, self.flush_period / 4)
         #: Queued items the writer thread handles between two looks at the clock.
         self._batch = 20_000
         self.max_queue = int(max_queue)
