@@ -319,7 +319,7 @@ def _op_rhs_inward(l: np.ndarray, W: np.ndarray, rhs: np.ndarray, use_rhs: bool,
     return bx, bz
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, error_model="numpy", fastmath={"contract"})
 def _op_unit_forces(arr: np.ndarray, par: np.ndarray, W: np.ndarray, S: np.ndarray,
                     X: np.ndarray) -> None:
     """``X = M~^-1 J^T`` (two unit end forces, +x and +z) and ``J X`` into S."""
@@ -346,7 +346,7 @@ def _op_factor(arr: np.ndarray, par: np.ndarray, q: np.ndarray, qd: np.ndarray, 
     return _op_factor_trig(arr, par, q, qd, hg, kgeo, W, S, X, horizon)
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, error_model="numpy", fastmath={"contract"})
 def _op_factor_trig(arr: np.ndarray, par: np.ndarray, q: np.ndarray, qd: np.ndarray, hg: float,
                     kgeo: np.ndarray, W: np.ndarray, S: np.ndarray, X: np.ndarray,
                     horizon: float) -> bool:
@@ -401,7 +401,7 @@ def _op_factor_trig(arr: np.ndarray, par: np.ndarray, q: np.ndarray, qd: np.ndar
 # --------------------------------------------------------------------------------------------
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, error_model="numpy", fastmath={"contract"})
 def _op_solve(arr: np.ndarray, par: np.ndarray, W: np.ndarray, S: np.ndarray, X: np.ndarray,
               rhs: np.ndarray, x: np.ndarray) -> None:
     """Solve ``M~ x = rhs`` (anchored: with ``J x = 0``) using a factorisation from
@@ -423,7 +423,7 @@ def _op_solve(arr: np.ndarray, par: np.ndarray, W: np.ndarray, S: np.ndarray, X:
     add_columns(x, X[0], f0, X[1], f1)
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, error_model="numpy", fastmath={"contract"})
 def _dk_product(arr: np.ndarray, par: np.ndarray, hg: float, W: np.ndarray, rd: np.ndarray,
                 rk: np.ndarray, out: np.ndarray) -> None:
     """``out = hg D rd + hg K rk`` with the local ``D``, ``K`` of the factorisation in W."""
@@ -448,7 +448,7 @@ def _dk_product(arr: np.ndarray, par: np.ndarray, hg: float, W: np.ndarray, rd: 
         _contact_product(arr, hg, W, rd, rk, out)
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, error_model="numpy", fastmath={"contract"})
 def _contact_product(arr: np.ndarray, hg: float, W: np.ndarray, rd: np.ndarray, rk: np.ndarray,
                      out: np.ndarray) -> None:
     """``out += int J_z^T hg (c_b J_z rd + k_b J_z rk) ds`` over each link's contact interval:
@@ -485,7 +485,7 @@ def _contact_product(arr: np.ndarray, hg: float, W: np.ndarray, rd: np.ndarray, 
     out[0] += sz
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, error_model="numpy", fastmath={"contract"})
 def _morison_product(l: np.ndarray, W: np.ndarray, rd: np.ndarray, out: np.ndarray) -> None:
     """``out += J_c^T (hg G) J_c rd``: centre "velocities" ``J_c rd``, forces ``hg G J_c rd``,
     generalised by ``J_c^T`` (reverse sums)."""
@@ -514,7 +514,7 @@ def _morison_product(l: np.ndarray, W: np.ndarray, rd: np.ndarray, out: np.ndarr
     out[0] += sz
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, error_model="numpy", fastmath={"contract"})
 def _kgeo_from_forces(arr: np.ndarray, cth: np.ndarray, sth: np.ndarray, F: np.ndarray,
                       kgeo: np.ndarray) -> None:
     """Tension stiffness ``kappa_i = max(0, l_i T_i)``, T_i the mean axial tension of link i
