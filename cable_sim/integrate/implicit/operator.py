@@ -58,8 +58,8 @@ from cable_sim.core.kernel.links import (
     next_pin_velocity,
     woodbury_load,
 )
-from cable_sim.core.kernel.packing import pack_arrays
-from cable_sim.core.kernel.sweeps import TINY, add_columns, outward_sweep, singular_2x2, solve_2x2
+from cable_sim.core.kernel.packing import ARR_MK, pack_arrays
+from cable_sim.core.kernel.sweeps import _K_IL2, TINY, add_columns, outward_sweep, singular_2x2, solve_2x2
 from cable_sim.core.model import CableModel
 
 #: 1/12 (a multiply per link instead of a division: equal to round-off).
@@ -99,33 +99,48 @@ def _link_terms(arr: np.ndarray, par: np.ndarray, q: np.ndarray, qd: np.ndarray,
     current = par[0]
     drag = int(par[1])
     hg2 = hg * hg
-    vx = 0.0
-    vz = qd[0]
+    beta = W[_W_BETA]
+    kg = W[_W_KGEO]
+    drot = W[_W_DROT]
+    gt = W[_W_GT]
+    ge = W[_W_GE]
+    rot = W[_W_ROT]
+    # the drag model chosen once (not per link): one short loop each, without branches
     for i in range(n):
-        c = W[_W_COS, i]
-        s = W[_W_SIN, i]
-        W[_W_BETA, i] = hg * jc[i] + hg2 * jk[i]
-        W[_W_KGEO, i] = hg * kgeo[i]
-        w = qd[i + 1]
-        W[_W_DROT, i] = 0.0
-        W[_W_GT, i] = 0.0
-        W[_W_GE, i] = 0.0
-        if drag == 1:
-            W[_W_DROT, i] = hg * 2.0 * gl2[i] * abs(w)
-        elif drag == 2:
+        beta[i] = hg * jc[i] + hg2 * jk[i]
+        kg[i] = hg * kgeo[i]
+    if drag == 1:
+        for i in range(n):
+            drot[i] = hg * 2.0 * gl2[i] * abs(qd[i + 1])
+    else:
+        for i in range(n):
+            drot[i] = 0.0
+    if drag == 2:
+        vx = 0.0
+        vz = qd[0]
+        for i in range(n):
+            c = W[_W_COS, i]
+            s = W[_W_SIN, i]
+            w = qd[i + 1]
             vcx, vcz = centre_velocity(vx, vz, l[i], c, s, w, current)
             vt, ve = link_frame_velocity(vcx, vcz, c, s)  # normal (along t), axial (along e)
-            W[_W_GT, i] = hg * 2.0 * cn[i] * abs(vt)
-            W[_W_GE, i] = hg * 2.0 * ct[i] * abs(ve)
+            gt[i] = hg * 2.0 * cn[i] * abs(vt)
+            ge[i] = hg * 2.0 * ct[i] * abs(ve)
             vx, vz = next_pin_velocity(vx, vz, l[i], c, s, w)
-        W[_W_ROT, i] = W[_W_DROT, i] + hg * W[_W_KGEO, i]
+    else:
+        for i in range(n):
+            gt[i] = 0.0
+            ge[i] = 0.0
+    for i in range(n):
+        rot[i] = drot[i] + hg * kg[i]
     _contact_terms(arr, par, q, qd, W, horizon)
 
 
 @nb.njit(cache=True, inline="always")
 def _contact_terms(arr: np.ndarray, par: np.ndarray, q: np.ndarray, qd: np.ndarray,
                    W: np.ndarray, horizon: float) -> None:
-    """Each link's seabed contact interval ``[a, b]`` into W (``a = b = 0`` without).
+    """Each link's seabed contact interval ``[a, b]`` into W (``a = b = 0`` without; not
+    written without a seabed, where nothing reads them).
 
     ``horizon`` = 0: where the bed pushes on the link at (q, qd)
     (:func:`cable_sim.core.kernel.contact.touching_interval`), so that the operator is the
@@ -137,9 +152,7 @@ def _contact_terms(arr: np.ndarray, par: np.ndarray, q: np.ndarray, qd: np.ndarr
     damper cancels the spring while it rises fast, then the spring is back)."""
     n = arr.shape[1]
     l = arr[0]
-    W[_W_CA] = 0.0
-    W[_W_CB] = 0.0
-    if par[17] == 0.0:
+    if par[17] == 0.0:  # no seabed: the rows are not read (:func:`_op_inward`, :func:`_dk_product`)
         return
     zb = par[18]
     kb = arr[8]
@@ -178,15 +191,21 @@ def _contact_moments(a: float, b: float) -> tuple[float, float, float]:
 
 
 @nb.njit(cache=True, inline="always")
-def _op_inward(arr: np.ndarray, W: np.ndarray, mload: float, hg: float) -> float:
+def _op_inward(arr: np.ndarray, W: np.ndarray, mload: float, hg: float, contact: bool) -> float:
     """The 3x3 articulated inertias ``[[c, w^T], [w, A]]``, tip to platform; fills ``1/D_i`` and
     ``u_i`` (world frame) in W and returns the platform's ``A_zz`` (see :func:`_op_factor`).
     A and w stay in each link's frame; the parent turns them into its own by the relative
-    angle (:func:`cable_sim.core.kernel.frames.to_parent_frame`)."""
+    angle (:func:`cable_sim.core.kernel.frames.to_parent_frame`).
+
+    ``contact`` (a constant at each call: the model has a seabed) adds the contact intervals'
+    terms; without, they are left out of the arithmetic (not added as zeros). The factors off
+    the recursion's chain are formed ahead (``u^2/l^2``, ``beta u/l^2``, ...), so that on the
+    chain the new inertia costs the rotation, one division and one product."""
     n = arr.shape[1]
     l = arr[0]
     m = arr[12]  # link mass seen along the normal (m + m_an l with added mass)
     ma = arr[13]  # and along the axis (m + m_at l)
+    il2a = arr[ARR_MK + _K_IL2]  # 1/l^2
     kb = arr[8]  # seabed stiffness and damping per length (contact interval in W)
     cb = arr[9]
     hg2 = hg * hg
@@ -209,8 +228,8 @@ def _op_inward(arr: np.ndarray, W: np.ndarray, mload: float, hg: float) -> float
         s = sth[i]
         li = l[i]
         mi = m[i]
-        il = 1.0 / li
-        il2 = il * il
+        il2 = il2a[i]
+        il = li * il2
         if i == n - 1:
             p_tt, r_te, s_ee = pa, ra, ua
             wt, we = wtc, wec
@@ -224,54 +243,70 @@ def _op_inward(arr: np.ndarray, W: np.ndarray, mload: float, hg: float) -> float
         mt = mi + W[_W_GT, i]
         me = ma[i] + W[_W_GE, i]
         bi = beta[i]
-        ip = mi * _TWELFTH + (rot[i] + bi) * il2  # rotational inertia about the centre / l^2
-        # seabed: a world-z mass of density kap = hg c_b + hg^2 k_b on the contact interval;
-        # in the t direction (z.t = s) its mass, moments / l, l^2 and the centred forms
-        za, zb_ = W[_W_CA, i], W[_W_CB, i]
-        mz = 0.0
-        s1 = 0.0
-        q0 = 0.0
-        q1 = 0.0
-        q2 = 0.0
-        qc = 0.0
-        qv = 0.0
-        qm = 0.0
-        qq = 0.0
-        if zb_ > za:
-            kap = hg * cb[i] + hg2 * kb[i]
-            h0, h1, h2 = _contact_moments(za, zb_)
-            mz = kap * h0
-            s1 = kap * h1
-            ks = kap * s * s
-            q0 = ks * h0
-            q1 = ks * h1 * il
-            q2 = ks * h2 * il2
-            qc = ks * _contact_moments(za - 0.5 * li, zb_ - 0.5 * li)[2] * il2  # about the centre
-            qv = ks * ks * h0 * h0 * h0 * h0 * il2 / 12.0  # q0 q2 - q1^2
-            qm = q0 * (1.0 - 0.5 * (za + zb_) / li)  # q0 - q1
-            qq = ks * _contact_moments(1.0 - zb_ / li, 1.0 - za / li)[2] * li  # q0 + q2 - 2 q1
+        bl = bi * il2
+        ip0 = mi * _TWELFTH + rot[i] * il2
+        ip = ip0 + bl  # rotational inertia about the centre / l^2
         cw = cc * il2
         ww = wt * il  # the reciprocal off the recursion's chain
-        dn = ip + 0.25 * mt + q2 + cw + 2.0 * ww + p_tt  # D / l^2
-        idn = 1.0 / dn  # one division for the six by D below (and 1/l once: two per link)
+        e0 = ip0 + 0.25 * mt  # (D - beta) / l^2 without the child: off the chain
+        if contact:
+            # seabed: a world-z mass of density kap = hg c_b + hg^2 k_b on the contact
+            # interval; in the t direction (z.t = s) its mass, moments / l, l^2 and the centred
+            # forms
+            za, zb_ = W[_W_CA, i], W[_W_CB, i]
+            mz = 0.0
+            s1 = 0.0
+            q0 = 0.0
+            q1 = 0.0
+            q2 = 0.0
+            qc = 0.0
+            qv = 0.0
+            qm = 0.0
+            qq = 0.0
+            if zb_ > za:
+                kap = hg * cb[i] + hg2 * kb[i]
+                h0, h1, h2 = _contact_moments(za, zb_)
+                mz = kap * h0
+                s1 = kap * h1
+                ks = kap * s * s
+                q0 = ks * h0
+                q1 = ks * h1 * il
+                q2 = ks * h2 * il2
+                qc = ks * _contact_moments(za - 0.5 * li, zb_ - 0.5 * li)[2] * il2  # about the centre
+                qv = ks * ks * h0 * h0 * h0 * h0 * il2 / 12.0  # q0 q2 - q1^2
+                qm = q0 * (1.0 - 0.5 * (za + zb_) / li)  # q0 - q1
+                qq = ks * _contact_moments(1.0 - zb_ / li, 1.0 - za / li)[2] * li  # q0 + q2 - 2 q1
+            en = (e0 + q2) + (cw + 2.0 * ww) + p_tt  # (D - beta) / l^2
+            ut = li * (0.5 * mt + q1 + p_tt) + wt
+            ue = we + li * r_te - s1 * s * c
+            m0 = mt + q0
+            num = (m0 * ip + mt * qc + qv + m0 * cw + 2.0 * ww * (0.5 * mt + qm)
+                   + p_tt * (ip + 0.25 * mt + qq) + (p_tt * cw - ww * ww))
+            rz = r_te - mz * s * c
+            uz = me + mz * c * c + s_ee
+        else:
+            en = e0 + (cw + 2.0 * ww) + p_tt  # (D - beta) / l^2
+            ut = li * (0.5 * mt + p_tt) + wt
+            ue = we + li * r_te
+            num = (mt * ip + mt * cw + ww * mt + p_tt * (ip + 0.25 * mt) + (p_tt * cw - ww * ww))
+            rz = r_te
+            uz = me + s_ee
+        idn = 1.0 / (en + bl)  # l^2 / D: the one division per link
         inv_d = idn * il2
-        ut = li * (0.5 * mt + q1 + p_tt) + wt
-        ue = we + li * r_te - s1 * s * c
-        m0 = mt + q0
-        a_tt = (m0 * ip + mt * qc + qv + m0 * cw + 2.0 * ww * (0.5 * mt + qm)
-                + p_tt * (ip + 0.25 * mt + qq) + (p_tt * cw - ww * ww)) * idn
-        pa = a_tt
-        ra = r_te - mz * s * c - ut * ue * inv_d
-        ua = me + mz * c * c + s_ee - ue * ue * inv_d
+        # the numerators known before 1/D (formed while it is computed): on the chain one
+        # product each
+        pa = num * idn
+        ra = rz - (ut * ue * il2) * idn
+        ua = uz - (ue * ue * il2) * idn
         uxw, uzw = from_link_frame(ut, ue, c, s)
         W[_W_D, i] = inv_d
         W[_W_UX, i] = uxw
         W[_W_UZ, i] = uzw
-        # rotational coupling passed to the parent (zero without armature), link frame
-        dnb = li * li * (mi * _TWELFTH + rot[i] * il2 + 0.25 * mt + q2 + cw + 2.0 * ww + p_tt)
-        cc = bi * dnb * inv_d
-        wtc = bi * ut * inv_d
-        wec = bi * ue * inv_d
+        # rotational coupling passed to the parent (zero without armature), link frame:
+        # beta (D - beta) / D (D - beta a sum of non-negative terms), beta u / D
+        cc = (bi * en) * idn
+        wtc = (bl * ut) * idn
+        wec = (bl * ue) * idn
         # cross terms decaying geometrically along a straight stretch: flushed at TINY of the
         # inertia / coupling before they turn subnormal (as in sweeps.inward_sweep: every
         # 16th link)
@@ -384,7 +419,11 @@ def _op_factor_trig(arr: np.ndarray, par: np.ndarray, q: np.ndarray, qd: np.ndar
     _link_terms(arr, par, q, qd, hg, kgeo, W, horizon)
     heavy = woodbury_load(arr[1], mc, constrained, par[7] != 0.0)
     extra = constrained or heavy
-    azz = _op_inward(arr, W, 0.0 if extra else mc, hg)
+    mload = 0.0 if extra else mc
+    if par[17] != 0.0:  # seabed: the contact terms (chosen once per factorisation)
+        azz = _op_inward(arr, W, mload, hg, True)
+    else:
+        azz = _op_inward(arr, W, mload, hg, False)
     S[_S_BETA0] = hg * par[6] + (hg * hg) * par[5]
     S[_S_AZZ] = azz
     S[_S_MC] = mc
