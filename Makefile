@@ -46,11 +46,9 @@ $(PKG_STAMP): $(DEPS_STAMP) $(SOURCES)
 run: $(PKG_STAMP)
 	$(VENV)/bin/cable_sim_node --ros-args --params-file config/$(SCENE).yaml $(ARGS)
 
-# -P: the tests import the installed package (the stamp above keeps it equal to the tree), the
-# same files the node processes they start run, so numba compiles (and caches) each kernel once.
 test: $(PKG_STAMP)
 	$(VENV)/bin/ruff check cable_sim test launch
-	$(PY) -P -m pytest -q test
+	$(PY) -m pytest -q test
 
 lint: $(PKG_STAMP)
 	$(VENV)/bin/ruff check cable_sim test launch
