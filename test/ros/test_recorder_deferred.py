@@ -93,8 +93,8 @@ def test_failed_encoding_is_counted_dropped_and_logged_the_rest_recorded(tmp_pat
 def test_deferred_writes_after_close_and_beyond_the_queue_are_counted(tmp_path):
     logs: list[str] = []
     rec = RunRecorder(tmp_path / "q.mcap", max_queue=5, logger=logs.append)
-    rec._poll = 10.0  # the writer thread sleeps: the queue fills  # noqa: SLF001
-    time.sleep(0.1)
+    rec._poll = 10.0  # the writer thread sleeps (after its first poll wait): the queue fills  # noqa: SLF001
+    time.sleep(2 * min(0.25, rec.flush_period / 4) + 0.1)
     encode = lambda payloads, _t: [_float64(p) for p in payloads]  # noqa: E731
     for i in range(8):
         rec.write_deferred("/a", FLOAT64, encode, float(i), 100 + i)

@@ -116,6 +116,8 @@ class RunRecorder:
         #: hands over the GIL rarely (each hand-over costs it a thread wake-up, not only the
         #: writer's work): four times per flush period, at most every 0.25 s.
         self._poll = min(0.25, self.flush_period / 4)
+        #: Set by :meth:`close`: wakes the writer thread from its poll wait at once.
+        self._wake = threading.Event()
         #: Queued items the writer thread handles between two looks at the clock.
         self._batch = 20_000
         self.max_queue = int(max_queue)
@@ -290,7 +292,9 @@ class RunRecorder:
         with self._close_lock:
             if self._closed:
                 return
-            self._closing = True
+            if not self._closing:  # (not again from a signal handler inside set(): its lock)
+                self._closing = True
+                self._wake.set()  # the writer thread stops waiting for its next poll
             if self._thread.is_alive() and threading.current_thread() is not self._thread:
                 self._thread.join(timeout)
             if self._thread.is_alive():
@@ -324,11 +328,11 @@ class RunRecorder:
                     self._drain(self._batch)
                     if not backlog and not self._closing:
                         # let messages gather: one GIL hand-off per poll period, not per message
-                        time.sleep(self._poll)
+                        self._wake.wait(self._poll)
                 elif self._closing:
                     break
                 else:
-                    time.sleep(self._poll)
+                    self._wake.wait(self._poll)
                 now = time.monotonic()
                 if now - last_flush >= self.flush_period:
                     if self._dirty:
@@ -356,6 +360,7 @@ class RunRecorder:
         channels = self._channels
         add = self._chunk.add
         n = 0
+        i = -1
         try:
             for i, item in enumerate(items):
                 if item is None:  # a deferred message that could not be encoded (counted)
@@ -386,6 +391,9 @@ class RunRecorder:
                         self._drop_items(items[i + 1:])
                         self._drop_queued()
                         return
+        except BaseException:  # unexpected (logged by _run): what was taken but not handled is counted
+            self._drop_items(items[i + 1:])
+            raise
         finally:
             self._written += n
             if n:
