@@ -54,8 +54,9 @@ import numpy as np
 
 from cable_sim.core import dynamics
 from cable_sim.core import kernel as fast
-from cable_sim.core.kernel.checks import STATUS_OK, STATUS_SINGULAR, check_packed
-from cable_sim.core.kernel.forward import fd_packed_ws
+from cable_sim.core.kernel.checks import STATUS_OK, STATUS_SINGULAR, check_packed, check_packed_ws
+from cable_sim.core.kernel.forward import fd_packed_ws, fd_trig
+from cable_sim.core.kernel.links import link_trig
 from cable_sim.core.kernel.signals import sample_program
 from cable_sim.core.model import CableModel
 from cable_sim.core.params import CableParams
@@ -150,18 +151,18 @@ INPUT_SPACING = 0.02
 def _ros_step(arr: np.ndarray, par: np.ndarray, geometric: bool, predict: bool, h: float, us: np.ndarray,
               es: np.ndarray, y: np.ndarray, yn: np.ndarray, err: np.ndarray, fs: tuple,
               sq: np.ndarray, sv: np.ndarray, wk: np.ndarray, at: np.ndarray, ct: np.ndarray,
-              mt: np.ndarray, et: np.ndarray, gamma: float) -> bool:
+              mt: np.ndarray, et: np.ndarray, gamma: float, trig_ready: bool = False) -> bool:
     """One step of h of the W-method with transformed coefficients ``at, ct, mt, et`` and
     diagonal ``gamma`` (ROS34PW2's or another's, :class:`RosTableau`) from y into ``yn`` and the
     embedded difference into ``err`` (both ``2(n+1)``); ``us[i], es[i]`` are the inputs at stage
     i's time. Returns False when a force evaluation or the factorisation is singular. ``fs`` is
     the factorisation's scratch (:func:`cable_sim.integrate.implicit.run.factor_workspace`),
-    ``wk`` a (9, n+1) workspace."""
+    ``wk`` a (9, n+1) workspace. ``trig_ready``: the forward dynamics' workspace (``fs[0]``)
+    holds the links' cos/sin at y already (:func:`cable_sim.core.kernel.forward.fd_trig`; the
+    fixed-step run leaves those of the check there), not recomputed by the first stage."""
     n1 = y.shape[0] // 2
     hg = gamma * h
     fw, jw, F, kgeo, W, S, X = fs
-    Yq = wk[0]
-    Yv = wk[1]
     acc = wk[2]
     rd = wk[3]
     rk = wk[4]
@@ -172,15 +173,21 @@ def _ros_step(arr: np.ndarray, par: np.ndarray, geometric: bool, predict: bool, 
     # the stage combinations run stage by stage over whole rows (vectorised loops), adding the
     # terms in the same order as a per-entry sum over the stages: the same arithmetic
     for i in range(ns):
-        for j in range(n1):
-            Yq[j] = y[j]
-            Yv[j] = y[n1 + j]
-        for m in range(i):
-            c = h * at[i, m]
+        if i == 0:  # the first stage at y itself (views, not a copy)
+            Yq = y[:n1]
+            Yv = y[n1:]
+        else:
+            Yq = wk[0]
+            Yv = wk[1]
             for j in range(n1):
-                Yq[j] += c * sq[m, j]
-                Yv[j] += c * sv[m, j]
-        if not fd_packed_ws(arr, par, us[i], es[i], Yq, Yv, acc, lam, fw):
+                Yq[j] = y[j]
+                Yv[j] = y[n1 + j]
+            for m in range(i):
+                c = h * at[i, m]
+                for j in range(n1):
+                    Yq[j] += c * sq[m, j]
+                    Yv[j] += c * sv[m, j]
+        if not fd_packed_ws(arr, par, us[i], es[i], Yq, Yv, acc, lam, fw, trig_ready and i == 0):
             return False
         if i == 0:
             # drag linearised at the predicted velocity v + h a (a W-method keeps its order for
@@ -254,15 +261,22 @@ def _ros_fixed_run(arr: np.ndarray, par: np.ndarray, geometric: bool, predict: b
     """``u.shape[0]`` checked fixed steps (``u[k, i]``: input at stage i of step k), in place
     on y; as :func:`cable_sim.integrate.implicit.run._implicit_run`."""
     ns = at.shape[0]
-    fs, sq, sv, wk, yn, err = _workspace(arr.shape[1], ns)
+    n = arr.shape[1]
+    fs, sq, sv, wk, yn, err = _workspace(n, ns)
+    # the links' cos/sin at y in the forward dynamics' workspace: the check of each step leaves
+    # those of the new state there, the next step's first force evaluation reuses them
+    cth, sth = fd_trig(fs[0], n)
+    link_trig(y, cth, sth)
     for k in range(u.shape[0]):
         info[1] = k
         ok = _ros_step(arr, par, geometric, predict, h, u[k], eta[k], y, yn, err, fs, sq, sv, wk,
-                       at, ct, mt, et, gamma)
+                       at, ct, mt, et, gamma, True)
         info[0] += ns
         if not ok:
             return STATUS_SINGULAR
-        status = check_packed(arr, par, yn, chk, info)
+        if par[10] == 0.0:  # (anchored: the check's projection recomputes them)
+            link_trig(yn, cth, sth)
+        status = check_packed_ws(arr, par, yn, chk, info, cth, sth)
         if status != STATUS_OK:
             return status
         y[:] = yn
