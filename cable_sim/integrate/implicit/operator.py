@@ -546,13 +546,14 @@ def _dk_product(arr: np.ndarray, par: np.ndarray, hg: float, W: np.ndarray, rd: 
     # joint torques tau_i on relative angles (springs on rk, dampers on rd); Q_i = tau_i - tau_{i+1}
     jk = arr[3]
     jc = arr[4]
-    t_i = hg * joint_torque(jk[0], jc[0], rk[1], 0.0, rd[1], 0.0)
-    for i in range(n):
-        t_next = 0.0
-        if i + 1 < n:
+    # (no branch in the loop: the last link, without a joint below, after it)
+    if n > 0:
+        t_i = hg * joint_torque(jk[0], jc[0], rk[1], 0.0, rd[1], 0.0)
+        for i in range(n - 1):
             t_next = hg * joint_torque(jk[i + 1], jc[i + 1], rk[i + 2], rk[i + 1], rd[i + 2], rd[i + 1])
-        out[i + 1] = t_i - t_next + (drot[i] * rd[i + 1] + kg[i] * rk[i + 1])
-        t_i = t_next
+            out[i + 1] = t_i - t_next + (drot[i] * rd[i + 1] + kg[i] * rk[i + 1])
+            t_i = t_next
+        out[n] = t_i + (drot[n - 1] * rd[n] + kg[n - 1] * rk[n])
     if int(par[1]) == 2:
         _morison_product(l, W, rd, out)
     if par[17] != 0.0:

@@ -172,21 +172,17 @@ def _ros_step(arr: np.ndarray, par: np.ndarray, geometric: bool, predict: bool, 
     ns = at.shape[0]
     # the stage combinations run stage by stage over whole rows (vectorised loops), adding the
     # terms in the same order as a per-entry sum over the stages: the same arithmetic
+    Yq = wk[0]
+    Yv = wk[1]
     for i in range(ns):
-        if i == 0:  # the first stage at y itself (views, not a copy)
-            Yq = y[:n1]
-            Yv = y[n1:]
-        else:
-            Yq = wk[0]
-            Yv = wk[1]
+        for j in range(n1):
+            Yq[j] = y[j]
+            Yv[j] = y[n1 + j]
+        for m in range(i):
+            c = h * at[i, m]
             for j in range(n1):
-                Yq[j] = y[j]
-                Yv[j] = y[n1 + j]
-            for m in range(i):
-                c = h * at[i, m]
-                for j in range(n1):
-                    Yq[j] += c * sq[m, j]
-                    Yv[j] += c * sv[m, j]
+                Yq[j] += c * sq[m, j]
+                Yv[j] += c * sv[m, j]
         if not fd_packed_ws(arr, par, us[i], es[i], Yq, Yv, acc, lam, fw, trig_ready and i == 0):
             return False
         if i == 0:
