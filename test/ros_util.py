@@ -146,7 +146,7 @@ def node_args(scene: str | os.PathLike[str], *overrides: str, ros_args: Sequence
     return args + list(ros_args)
 
 
-def tested_code_path() -> dict[str, str]:
+def node_code_path() -> dict[str, str]:
     """``PYTHONPATH`` that makes a node started from this venv's console script import the same
     ``cable_sim`` as this test process (the source tree under ``python -m pytest``; ``make test``
     keeps the installed copy equal to it). Node and tests then run the same files, and numba,
@@ -160,9 +160,9 @@ def tested_code_path() -> dict[str, str]:
 
 
 def node_env(domain: int | None = None, base: Mapping[str, str] | None = None) -> dict[str, str]:
-    """``base`` (default: this process's environment plus :func:`tested_code_path`) with ROS
+    """``base`` (default: this process's environment plus :func:`node_code_path`) with ROS
     domain ``domain`` (default: the current one) and discovery on localhost only."""
-    base = dict(os.environ, **tested_code_path()) if base is None else base
+    base = dict(os.environ, **node_code_path()) if base is None else base
     return dict(base, ROS_DOMAIN_ID=str(domain if domain is not None else os.environ["ROS_DOMAIN_ID"]),
                 ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
 

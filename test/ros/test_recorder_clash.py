@@ -20,7 +20,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 import pytest
-from ros_util import isolate_ros, kill_and_reap, start_node, tested_code_path
+from ros_util import isolate_ros, kill_and_reap, node_code_path, start_node
 from std_msgs.msg import Float64
 
 from cable_sim.ros.recorder import RunRecorder
@@ -35,7 +35,7 @@ def _node(*params: str, ros_args: tuple[str, ...] = ()) -> Callable[[Path], subp
     def start(cwd: Path) -> subprocess.Popen:
         return start_node("mooring_line", "clock_mode:=fast", "duration:=3.0", "exit_at_end:=true",
                           *params, ros_args=ros_args, domain=DOMAIN, cwd=cwd,
-                          env=dict(os.environ, PYTHONUNBUFFERED="1", **tested_code_path()))
+                          env=dict(os.environ, PYTHONUNBUFFERED="1", **node_code_path()))
     return start
 
 
