@@ -54,8 +54,6 @@ def joint_forces_packed_ws(arr: np.ndarray, par: np.ndarray, lamx: float, lamz: 
     # that the load force m_c a_n, which is a cancellation for a heavy load, rounds alike
     ax = 0.0
     az = 0.0
-    vx = 0.0
-    vz = qd[0]
     for i in range(n):
         li = l[i]
         c = cth[i]
@@ -68,12 +66,21 @@ def joint_forces_packed_ws(arr: np.ndarray, par: np.ndarray, lamx: float, lamz: 
         acz[i] = 0.5 * ((az + qdd[0]) + (az_next + qdd[0]))
         ax = ax_next
         az = az_next
-        dfx[i] = 0.0
-        dfz[i] = 0.0
-        if drag == 2:
+    if drag == 2:  # the drag model chosen once: the Morison loop only with Morison drag
+        vx = 0.0
+        vz = qd[0]
+        for i in range(n):
+            li = l[i]
+            c = cth[i]
+            s = sth[i]
+            w = qd[i + 1]
             vcx, vcz = centre_velocity(vx, vz, li, c, s, w, current)
             dfx[i], dfz[i] = link_drag(c, s, vcx, vcz, cn[i], ct[i])
-        vx, vz = next_pin_velocity(vx, vz, li, c, s, w)
+            vx, vz = next_pin_velocity(vx, vz, li, c, s, w)
+    else:
+        for i in range(n):
+            dfx[i] = 0.0
+            dfz[i] = 0.0
     out[n, 0] = 0.0
     out[n, 1] = 0.0
     if constrained:
