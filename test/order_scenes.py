@@ -1,9 +1,17 @@
 """The smooth scene of the observed-order tests (test/integrate/test_integrator_order.py,
-test/integrate/test_ros34.py): n = 10, Morison drag, released at 60 degrees under a sine heave
-force, with each end condition."""
+test/integrate/test_ros34.py, test_ros34prw.py): n = 10, Morison drag, released at 60 degrees
+under a sine heave force, with each end condition; its DOP853 reference (computed once per test
+session) and the joint-position error the tests compare with."""
 
 from __future__ import annotations
 
+from functools import cache
+
+import numpy as np
+
+from cable_sim.core import dynamics
+from cable_sim.core.model import CableModel
+from cable_sim.integrate import ScipyIntegrator
 from cable_sim.scene.scenes import Scene, load_scene
 
 SMOOTH = dict(
@@ -21,3 +29,27 @@ ENDS = {
 def order_scene(end: str) -> Scene:
     """The smooth scene with end condition ``end`` (a key of :data:`ENDS`)."""
     return load_scene("paper_free_fall", {**SMOOTH, **ENDS[end], "anchor_x": 150.0, "anchor_z": -150.0})
+
+
+def order_case(end: str) -> tuple[Scene, CableModel, np.ndarray]:
+    """(scene, model, initial state) of :func:`order_scene`."""
+    scene = order_scene(end)
+    model = scene.model()
+    return scene, model, scene.initial_state(model)
+
+
+@cache
+def dop853_reference(end: str, horizon: float) -> np.ndarray:
+    """The state at ``horizon`` s of :func:`order_case` by DOP853 at rtol = atol = 1e-13 (the
+    same for every test of a session: treat as read-only)."""
+    scene, model, y0 = order_case(end)
+    ref = ScipyIntegrator(scene.system(model=model), "DOP853", rtol=1e-13, atol=1e-13)
+    return ref.advance(0.0, y0, horizon)
+
+
+def max_joint_position_error(model: CableModel, ys, ys_ref) -> float:
+    """Largest distance [m] between the joint positions of paired states of ``ys`` and ``ys_ref``."""
+    n1 = model.ndof
+    return max(float(np.max(np.linalg.norm(dynamics.joint_positions(model, a[:n1])
+                                           - dynamics.joint_positions(model, b[:n1]), axis=1)))
+               for a, b in zip(ys, ys_ref, strict=True))

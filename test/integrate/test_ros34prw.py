@@ -18,12 +18,10 @@ error estimate, compiled vs dense path.
    * stability function ``R(z) = 1 + z b^T (I - z (alpha + Gamma))^-1 1``: ``exp(z) + O(z^4)``,
      ``R(inf) = 0`` (L-stable, stiffly accurate), ``R_hat(inf) = -1/4`` for the embedded
      weights, ``|R| <= 1`` on the imaginary axis and in the left half-plane;
-   * the module's transformed coefficients reproduce the k-form step.
-2. On the cable (the order scene of ``test_integrator_order.py``, DOP853 1e-13 reference) the
-   fixed-step scheme converges at order 3 +- 0.3.
-3. The embedded estimate of one step is within a factor 3 of the true local error of the
-   embedded solution over a ladder of steps.
-4. The compiled (O(n)) path agrees with the dense reference path, fixed and adaptive.
+   * the module's transformed coefficients reproduce the k-form step (``rosw_kform.py``).
+2. On the cable: the observed order (3 +- 0.3) and the embedded estimate (within a factor 3 of
+   the true error) are tested with ROS34PW2's in test_ros34.py (parametrised by scheme).
+3. The compiled (O(n)) path agrees with the dense reference path, fixed and adaptive.
 """
 
 from __future__ import annotations
@@ -32,10 +30,10 @@ from fractions import Fraction
 
 import numpy as np
 import pytest
-from order_scenes import ENDS, SMOOTH, order_scene
+from order_scenes import ENDS, SMOOTH, dop853_reference, max_joint_position_error, order_case
+from rosw_kform import jac_osc, kform_step, observed_order, oscillator, transformed_step
 
-from cable_sim.core import dynamics
-from cable_sim.integrate import ScipyIntegrator, make_integrator
+from cable_sim.integrate import make_integrator
 from cable_sim.integrate.implicit import ros34, ros34prw
 from cable_sim.scene.scenes import load_scene
 
@@ -118,60 +116,26 @@ def test_stiffly_accurate() -> None:
     assert abs(sum(A[3]) - 1) <= _TABLE_TOL
 
 
-def _kform_step(f, T, y, h, weights=None, tb=ros34prw):
-    """Classical Rosenbrock-W step (Hairer & Wanner IV.7 with W = I - h gamma T):
-    ``(I - h g T) k_i = h f(y + sum alpha_ij k_j) + h T sum_{j<i} gamma_ij k_j``."""
-    al, ga, g = tb.ALPHA, tb.GAMMA_IJ, tb.GAMMA
-    b = tb.B if weights is None else weights
-    d = y.size
-    Wm = np.eye(d) - h * g * T
-    ks = []
-    for i in range(4):
-        yi = y + sum((al[i, j] * ks[j] for j in range(i)), np.zeros(d))
-        rhs = h * f(yi) + h * T @ sum((ga[i, j] * ks[j] for j in range(i)), np.zeros(d))
-        ks.append(np.linalg.solve(Wm, rhs))
-    return y + sum(b[i] * ks[i] for i in range(4))
-
-
-def _oscillator(y):
-    """Van der Pol-like smooth nonlinear 2D system (reference: the same step at h/8, its error
-    below 1/500 of the smallest error measured)."""
-    return np.array([y[1], -y[0] - 0.5 * (y[0] ** 2 - 1.0) * y[1]])
-
-
-def _jac_osc(y):
-    return np.array([[0.0, 1.0], [-1.0 - y[0] * y[1], -0.5 * (y[0] ** 2 - 1.0)]])
-
-
-def _order(f, T_of, y0, t_end, hs, exact, weights=None):
-    errs = []
-    for h in hs:
-        y = y0.copy()
-        for _ in range(round(t_end / h)):
-            y = _kform_step(f, T_of(y), y, h, weights)
-        errs.append(np.max(np.abs(y - exact)))
-    return np.polyfit(np.log(hs), np.log(errs), 1)[0], errs
-
-
 @pytest.mark.parametrize("jac", ["exact", "zero", "wrong"])
 def test_kform_converges_at_order_3_for_any_t(jac: str) -> None:
     f1 = lambda y: -(y**2)  # noqa: E731  (y(0) = 1: y = 1 / (1 + t))
     T1 = {"exact": lambda y: np.array([[-2.0 * y[0]]]), "zero": lambda y: np.zeros((1, 1)),
           "wrong": lambda y: np.array([[-7.0]])}[jac]
     hs = np.array([0.05, 0.025, 0.0125, 0.00625])
-    p, errs = _order(f1, T1, np.array([1.0]), 2.0, hs, np.array([1.0 / 3.0]))
+    p, errs = observed_order(f1, T1, np.array([1.0]), 2.0, hs, np.array([1.0 / 3.0]), ros34prw)
     print(f"y'=-y^2, T {jac}: errors {np.array2string(np.array(errs), precision=2)} order {p:.2f}")
     assert abs(p - 3.0) <= 0.3 and errs[-1] > 1e-13
     # the embedded weights: order 2 with the exact Jacobian, order 1 with a wrong one
-    p2, _ = _order(f1, T1, np.array([1.0]), 2.0, hs, np.array([1.0 / 3.0]), ros34prw.B_HAT)
+    p2, _ = observed_order(f1, T1, np.array([1.0]), 2.0, hs, np.array([1.0 / 3.0]), ros34prw,
+                           ros34prw.B_HAT)
     assert abs(p2 - (2.0 if jac == "exact" else 1.0)) <= 0.3, p2
-    T2 = {"exact": _jac_osc, "zero": lambda y: np.zeros((2, 2)),
+    T2 = {"exact": jac_osc, "zero": lambda y: np.zeros((2, 2)),
           "wrong": lambda y: np.array([[-3.0, 0.5], [0.2, -1.0]])}[jac]
     y0 = np.array([2.0, 0.0])
     y = y0.copy()
     for _ in range(round(2.0 / (hs[-1] / 8))):
-        y = _kform_step(_oscillator, T2(y), y, hs[-1] / 8)
-    p, errs = _order(_oscillator, T2, y0, 2.0, hs, y)
+        y = kform_step(oscillator, T2(y), y, hs[-1] / 8, ros34prw)
+    p, errs = observed_order(oscillator, T2, y0, 2.0, hs, y, ros34prw)
     print(f"oscillator, T {jac}: errors {np.array2string(np.array(errs), precision=2)} order {p:.2f}")
     assert abs(p - 3.0) <= 0.3
 
@@ -209,17 +173,10 @@ def test_stability_function() -> None:
 def test_transformed_coefficients_reproduce_k_form() -> None:
     tb = ros34prw.TABLEAU
     T = np.array([[-3.0, 0.5], [0.2, -1.0]])
-    y, h, g = np.array([2.0, 0.3]), 0.1, tb.gamma
-    W = np.eye(2) - h * g * T
-    s = []
-    for i in range(4):
-        yi = y + h * sum((tb.a_t[i, j] * s[j] for j in range(i)), np.zeros(2))
-        s.append(np.linalg.solve(W, g * (_oscillator(yi) + sum((tb.c_t[i, j] * s[j] for j in range(i)),
-                                                                np.zeros(2)))))
-    yn = y + h * sum(tb.m_t[i] * s[i] for i in range(4))
-    est = h * sum(tb.e_t[i] * s[i] for i in range(4))
-    ref = _kform_step(_oscillator, T, y, h)
-    ref_hat = _kform_step(_oscillator, T, y, h, ros34prw.B_HAT)
+    y, h = np.array([2.0, 0.3]), 0.1
+    yn, est = transformed_step(oscillator, T, y, h, tb)
+    ref = kform_step(oscillator, T, y, h, ros34prw)
+    ref_hat = kform_step(oscillator, T, y, h, ros34prw, ros34prw.B_HAT)
     np.testing.assert_allclose(yn, ref, rtol=1e-13, atol=1e-14)
     np.testing.assert_allclose(est, ref - ref_hat, rtol=1e-9, atol=1e-15)
     np.testing.assert_allclose(tb.c_times, ros34prw.ALPHA.sum(axis=1), rtol=0, atol=0)
@@ -232,67 +189,11 @@ def test_transformed_coefficients_reproduce_k_form() -> None:
 HORIZON = 2.0
 
 
-def _scene(end: str):
-    scene = order_scene(end)
-    model = scene.model()
-    return scene, model, scene.initial_state(model)
-
-
-@pytest.fixture(scope="module")
-def references() -> dict:
-    out = {}
-    for end in ENDS:
-        scene, model, y0 = _scene(end)
-        ref = ScipyIntegrator(scene.system(model=model), "DOP853", rtol=1e-13, atol=1e-13)
-        out[end] = (scene, model, y0, ref.advance(0.0, y0, HORIZON))
-    return out
-
-
-@pytest.mark.parametrize("end", list(ENDS))
-def test_observed_order_3(references, end: str) -> None:
-    scene, model, y0, y_ref = references[end]
-    hs = np.array([0.04, 0.02, 0.01, 0.005])
-    errs = np.array([np.max(np.abs(make_integrator("ros34prw", scene.system(model=model), float(h))
-                                   .advance(0.0, y0, HORIZON) - y_ref)) for h in hs])
-    slope = np.polyfit(np.log(hs), np.log(errs), 1)[0]
-    print(f"ros34prw {end:13s} errors {np.array2string(errs, precision=2)} -> order {slope:.2f}")
-    assert errs[-1] > 1e3 * 1e-13 * np.max(np.abs(y_ref))  # well above the reference's round-off
-    assert abs(slope - 3.0) <= 0.3
-    assert np.all(np.diff(errs) < 0)
-
-
-@pytest.mark.parametrize("end", list(ENDS))
-def test_embedded_estimate_tracks_true_error(end: str) -> None:
-    """One step from a moving state: the estimate ``y - y_hat`` vs the true local error of
-    ``y_hat`` (DOP853 1e-13 over the same step), both in the joint-mapped max norm."""
-    scene, model, y0 = _scene(end)
-    y1 = make_integrator("ros34prw", scene.system(model=model), 0.01).advance(0.0, y0, 1.0)
-    arr = ros34.fast.pack_arrays(model)[0]
-    ratios = []
-    for h in (0.1, 0.05, 0.025, 0.0125):
-        y_new, est = ros34._dense_ros_step(scene.system(model=model), 1.0, y1, h, True,
-                                           tableau=ros34prw.TABLEAU)
-        exact = ScipyIntegrator(scene.system(model=model), "DOP853", rtol=1e-13,
-                                atol=1e-13).advance(1.0, y1, 1.0 + h)
-        true = (y_new - est) - exact
-        ratios.append(ros34.err_norm(arr, y1, y_new, est, 1.0, 0.0)
-                      / ros34.err_norm(arr, y1, y_new, true, 1.0, 0.0))
-    print(f"{end}: estimate / true error of the embedded solution {np.round(ratios, 3)}")
-    assert all(1.0 / 3.0 <= r <= 3.0 for r in ratios), ratios
-
-
-def _max_pos_error(model, ys, ys_ref) -> float:
-    n1 = model.ndof
-    return max(float(np.max(np.linalg.norm(dynamics.joint_positions(model, a[:n1])
-                                           - dynamics.joint_positions(model, b[:n1]), axis=1)))
-               for a, b in zip(ys, ys_ref, strict=True))
-
-
 @pytest.mark.parametrize("end", ["free", "paper_anchor"])
 def test_fast_path_agrees_with_dense(end: str) -> None:
     """The compiled O(n) step and the dense reference step (different linear algebra) agree far
     below the scheme's error at this step (~1e-4 m)."""
-    scene, model, y0 = _scene(end)
+    scene, model, y0 = order_case(end)
     res = {}
     for kernel in ("fast", "dense"):
         sc = load_scene("paper_free_fall", {**SMOOTH, **ENDS[end], "anchor_x": 150.0,
@@ -300,13 +201,14 @@ def test_fast_path_agrees_with_dense(end: str) -> None:
         integ = make_integrator("ros34prw", sc.system(model=model), 0.02)
         assert integ.compiled is (kernel == "fast")
         res[kernel] = integ.advance(0.0, y0, 0.5)
-    assert _max_pos_error(model, [res["fast"]], [res["dense"]]) <= 1e-7
+    assert max_joint_position_error(model, [res["fast"]], [res["dense"]]) <= 1e-7
 
 
-def test_adaptive_fast_path_agrees_with_dense_and_tolerance(references) -> None:
+def test_adaptive_fast_path_agrees_with_dense_and_tolerance() -> None:
     """Adaptive steps end on every output time; compiled and dense controller take the same steps
     (up to decisions at round-off) and the result meets the tolerance against DOP853."""
-    scene, model, y0, y_ref = references["free"]
+    scene, model, y0 = order_case("free")
+    y_ref = dop853_reference("free", HORIZON)
     res = {}
     for kernel in ("fast", "dense"):
         sc = load_scene("paper_free_fall", {**SMOOTH, "kernel": kernel})
@@ -315,9 +217,9 @@ def test_adaptive_fast_path_agrees_with_dense_and_tolerance(references) -> None:
         for k in range(20):  # 20 output intervals of 0.1 s
             y = integ.step(0.1 * k, y)
         res[kernel] = (y, integ.nsteps)
-    err = _max_pos_error(model, [res["fast"][0]], [y_ref])
+    err = max_joint_position_error(model, [res["fast"][0]], [y_ref])
     print(f"adaptive 1e-5 over 20 x 0.1 s: joint error {err:.3g} m, steps {res['fast'][1]} "
           f"(dense {res['dense'][1]})")
     assert err <= 1e-4
     assert abs(res["fast"][1] - res["dense"][1]) <= 2
-    assert _max_pos_error(model, [res["fast"][0]], [res["dense"][0]]) <= 1e-6
+    assert max_joint_position_error(model, [res["fast"][0]], [res["dense"][0]]) <= 1e-6
