@@ -191,15 +191,21 @@ class RunRecorder:
         publish_time_ns: int | None = None,
     ) -> None:
         """Record already-serialised CDR bytes of type ``pkg/msg/Type`` (see :meth:`write`)."""
+        if self._admit():
+            lt = int(log_time_ns)
+            pt = lt if publish_time_ns is None else int(publish_time_ns)
+            self._queue.append((topic, type_name, data, lt, pt))
+
+    def _admit(self) -> bool:
+        """Whether one more message may be queued; if not, it is counted dropped (and a full
+        queue logged)."""
         if self._closing or self._failed:
             self._dropped += 1
-            return
+            return False
         if len(self._queue) >= self.max_queue:
             self._queue_full()
-            return
-        lt = int(log_time_ns)
-        pt = lt if publish_time_ns is None else int(publish_time_ns)
-        self._queue.append((topic, type_name, data, lt, pt))
+            return False
+        return True
 
     def _queue_full(self) -> None:
         """Count a message dropped because the queue is full; log it (at most once a second)."""
@@ -235,16 +241,11 @@ class RunRecorder:
         log_time_ns, publish_time_ns : int
             Timestamps [ns]; ``publish_time_ns`` defaults to ``log_time_ns``.
         """
-        if self._closing or self._failed:
-            self._dropped += 1
-            return
-        if len(self._queue) >= self.max_queue:
-            self._queue_full()
-            return
-        lt = int(log_time_ns)
-        pt = lt if publish_time_ns is None else int(publish_time_ns)
-        self._deferred = True
-        self._queue.append((topic, type_name, payload, lt, pt, encode))
+        if self._admit():
+            lt = int(log_time_ns)
+            pt = lt if publish_time_ns is None else int(publish_time_ns)
+            self._deferred = True
+            self._queue.append((topic, type_name, payload, lt, pt, encode))
 
     def offer_qos(self, topic: str, qos_yaml: str) -> None:
         """Store ``qos_yaml`` (rosbag2's ``offered_qos_profiles`` form) for ``topic`` instead of the
