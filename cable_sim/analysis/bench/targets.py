@@ -149,7 +149,7 @@ def recording_target(path: Path) -> dict:
               f"{float(r['overhead_max']):.3g})" if r.get("pairs") else "")
     return _row(target, float(r["overhead"]), goal,
                 f"from {path} (separate command: python -m cable_sim.analysis.recorder_bench "
-                f"--repeats 6): the node in fast mode, steps/s "
+                f"--repeats {r.get('pairs') or '?'}): the node in fast mode, steps/s "
                 f"{r.get('mode') or 'record vs no record'}{spread}; not measured in this run")
 
 
