@@ -23,7 +23,7 @@ pushed part of the link (the contact force's Jacobian, see
 armature couples a link's rotation to its parent's, the articulated inertia seen at a pin is
 3x3 (couple + force against parent rotation + pin acceleration) instead of the 2x2 of
 :mod:`cable_sim.core.kernel`; the recursion is otherwise the same and stays O(n) (see
-:func:`cable_sim.integrate.implicit.operator._op_factor`). The anchored end is handled by the
+:func:`cable_sim.integrate.implicit.op_factor._op_factor`). The anchored end is handled by the
 same Schur complement with the modified operator (two unit-force solves), the paper's 8e8 kg
 load by the same Woodbury form as in :mod:`cable_sim.core.kernel`; after each step the base
 class projects onto the constraint.
@@ -65,7 +65,9 @@ projection run in numba; :meth:`advance` runs many steps in one call) and a dens
 (kernel ``"dense"``: the same scheme with the dense matrices ``M``, ``D``, ``K``, used as the
 reference the O(n) solve is tested against).
 
-Modules: ``operator`` (the O(n) factor, solve and product of ``M + hg D + hg^2 K``), ``run``
+Modules: ``operator`` (the O(n) operator ``M + hg D + hg^2 K``: its theory and Python API; its
+compiled parts one per module: ``op_layout``, ``op_terms``, ``op_factor``, ``op_solve``,
+``op_product``), ``run``
 (the compiled stepping loop), ``schemes`` (the integrator classes), ``ros34`` (ROS34PW2, fixed
 and adaptive, with its own compiled loops, parametrised by the tableau), ``ros34prw`` (ROS34PRw,
 the same loops with another tableau), ``dense`` (the dense reference operator and solve).

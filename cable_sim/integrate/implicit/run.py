@@ -46,7 +46,7 @@ def _factor_at(arr: np.ndarray, par: np.ndarray, geometric: bool, hg: float, q: 
                jw: np.ndarray, F: np.ndarray, kgeo: np.ndarray, W: np.ndarray, S: np.ndarray,
                X: np.ndarray, h: float) -> bool:
     """Factor the operator at (q, vf) (seabed contact over the step h, see
-    :func:`cable_sim.integrate.implicit.operator._op_factor`); with ``geometric`` the tension
+    :func:`cable_sim.integrate.implicit.op_factor._op_factor`); with ``geometric`` the tension
     stiffness from the joint forces at (q, v), the accelerations ``a1`` and anchor reaction
     ``lam`` first. ``fw`` is the workspace of the forward dynamics just evaluated at q: its
     links' cos/sin serve the joint forces, the tension stiffness and the operator."""

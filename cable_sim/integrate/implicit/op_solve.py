@@ -1,0 +1,129 @@
+"""Solve with a factorised O(n) operator ``M + hg D + hg^2 K`` (see
+:mod:`cable_sim.integrate.implicit.operator`): the inward and outward sweeps of a generalised
+force written as affine maps of the previous link's values (:func:`_solve_inward`,
+:func:`_solve_outward`) and the solve with the anchored end's or heavy load's 2x2 correction
+(:func:`_op_solve`).
+
+Integrate layer: imports numba, numpy, :mod:`cable_sim.core.kernel` and the sibling
+``op_layout``.
+"""
+
+from __future__ import annotations
+
+import numba as nb
+import numpy as np
+
+from cable_sim.core.kernel.sweeps import add_columns, solve_2x2
+from cable_sim.integrate.implicit.op_layout import (
+    _MODE_HEAVY,
+    _MODE_NONE,
+    _S_AZZ,
+    _S_BETA0,
+    _S_J00,
+    _S_J01,
+    _S_J10,
+    _S_J11,
+    _S_MC,
+    _S_MODE,
+    _W_BCN,
+    _W_BETA,
+    _W_COS,
+    _W_D,
+    _W_SIN,
+    _W_UX,
+    _W_UZ,
+)
+
+
+@nb.njit(cache=True, inline="always")
+def _solve_inward(l: np.ndarray, W: np.ndarray, rhs: np.ndarray, rr: np.ndarray) -> float:
+    """:func:`_op_rhs_inward` of a generalised force (``-b_i`` into ``rr``; returns the
+    vertical force on the platform) with the recursion written as an affine map of the state
+    ``(b_n, b_x, b_z)``: ``b = (b_n - r) + lt . (b_x, b_z)``, ``b_n' = k b``, ``(b_x, b_z)' =
+    (b_x, b_z) - g b`` (``k = beta/D``, ``g = u/D``) expanded into products of the old state
+    with factors formed off the recursion's chain (``1 - g_x l t_x``, ...), so that on the chain
+    each new entry costs two products and two sums in a tree instead of the chain through b.
+    Equal to round-off."""
+    cth = W[_W_COS]
+    sth = W[_W_SIN]
+    idd = W[_W_D]
+    uxa = W[_W_UX]
+    uza = W[_W_UZ]
+    beta = W[_W_BETA]
+    bn = 0.0
+    bx = 0.0
+    bz = 0.0
+    for i in range(l.shape[0] - 1, -1, -1):
+        ltx = l[i] * cth[i]
+        ltz = l[i] * sth[i]
+        inv_d = idd[i]
+        gx = uxa[i] * inv_d
+        gz = uza[i] * inv_d
+        k = beta[i] * inv_d
+        r = rhs[i + 1]
+        rr[i] = -((bn - r) + (ltx * bx + ltz * bz))
+        bn_new = (k * ltx * bx + k * ltz * bz) + k * (bn - r)
+        bx_new = ((1.0 - gx * ltx) * bx - (gx * ltz) * bz) - gx * (bn - r)
+        bz = ((1.0 - gz * ltz) * bz - (gz * ltx) * bx) - gz * (bn - r)
+        bx = bx_new
+        bn = bn_new
+    return bz
+
+
+@nb.njit(cache=True, inline="always")
+def _solve_outward(l: np.ndarray, W: np.ndarray, rr: np.ndarray, zdd: float,
+                   x: np.ndarray) -> tuple[float, float]:
+    """The outward sweep of :func:`_op_solve` (``x = [zdd, alpha_1..n]``; returns the end's
+    acceleration), as :func:`cable_sim.core.kernel.sweeps.outward_sweep` with the armature
+    (no velocity terms) but written as an affine map of the state ``(alpha, a_x, a_z)``:
+    ``alpha' = R/D + k alpha - g . a``, ``a' = a + l t alpha'`` expanded so that the new pin
+    acceleration is formed from the old state directly (factors ``1 - l t_x g_x``, ``l t k``,
+    ... off the chain), not through ``alpha'``. Equal to round-off."""
+    cth = W[_W_COS]
+    sth = W[_W_SIN]
+    idd = W[_W_D]
+    uxa = W[_W_UX]
+    uza = W[_W_UZ]
+    beta = W[_W_BETA]
+    x[0] = zdd
+    ap = 0.0
+    apx = 0.0
+    apz = zdd
+    for i in range(l.shape[0]):
+        ltx = l[i] * cth[i]
+        ltz = l[i] * sth[i]
+        inv_d = idd[i]
+        gx = uxa[i] * inv_d
+        gz = uza[i] * inv_d
+        k = beta[i] * inv_d
+        rd = rr[i] * inv_d
+        alpha = (rd + k * ap) - (gx * apx + gz * apz)
+        x[i + 1] = alpha
+        ax_new = (ltx * rd + (ltx * k) * ap) + ((1.0 - ltx * gx) * apx - (ltx * gz) * apz)
+        apz = (ltz * rd + (ltz * k) * ap) + ((1.0 - ltz * gz) * apz - (ltz * gx) * apx)
+        apx = ax_new
+        ap = alpha
+    return apx, apz
+
+
+@nb.njit(cache=True, error_model="numpy", fastmath={"contract"})
+def _op_solve(arr: np.ndarray, par: np.ndarray, W: np.ndarray, S: np.ndarray, X: np.ndarray,
+              rhs: np.ndarray, x: np.ndarray) -> None:
+    """Solve ``M~ x = rhs`` (anchored: with ``J x = 0``) using a factorisation from
+    :func:`_op_factor`. ``rhs`` is a generalised force: ``rhs[0]`` a vertical force on the
+    platform, ``rhs[i]`` a couple on link i. The two sweeps are :func:`_solve_inward` and
+    :func:`_solve_outward` (the unit end forces of the factorisation take
+    :func:`_op_rhs_inward` and the shared outward sweep)."""
+    l = arr[0]
+    bcn = W[_W_BCN]
+    bz = _solve_inward(l, W, rhs, bcn)
+    zdd = 0.0 if par[7] != 0.0 else (rhs[0] - bz) / (par[4] + S[_S_BETA0] + S[_S_AZZ])
+    apx, apz = _solve_outward(l, W, bcn, zdd, x)
+    mode = S[_S_MODE]
+    if mode == _MODE_NONE:
+        return
+    eps = 1.0 / S[_S_MC] if mode == _MODE_HEAVY else 0.0
+    a11 = S[_S_J00] + eps
+    a22 = S[_S_J11] + eps
+    f0, f1 = solve_2x2(a11, S[_S_J01], S[_S_J10], a22, -apx, -apz)
+    add_columns(x, X[0], f0, X[1], f1)
