@@ -14,15 +14,16 @@ import numba as nb
 import numpy as np
 
 from cable_sim.core.kernel.contact import seabed_links_nb
-from cable_sim.core.kernel.links import centre_velocity, link_drag, link_trig_libm, next_pin_velocity
+from cable_sim.core.kernel.links import link_trig_libm, morison_drag
 from cable_sim.core.kernel.packing import pack_arrays, vec
 from cable_sim.core.model import CableModel
 
 #: Rows of the joint-force workspace (:func:`jf_workspace`): link cos/sin, link-centre
-#: accelerations (x, z), per-link applied forces other than gravity (x, z), and four rows
-#: holding the seabed's per-link resultants and first moments ((n, 2) each).
-JF_ROWS = 10
-_J_COS, _J_SIN, _J_ACX, _J_ACZ, _J_DFX, _J_DFZ, _J_BED = 0, 1, 2, 3, 4, 5, 6
+#: accelerations (x, z), per-link applied forces other than gravity (x, z), four rows
+#: holding the seabed's per-link resultants and first moments ((n, 2) each), and the Morison
+#: drag's pin velocities (x, z).
+JF_ROWS = 12
+_J_COS, _J_SIN, _J_ACX, _J_ACZ, _J_DFX, _J_DFZ, _J_BED, _J_PVX, _J_PVZ = 0, 1, 2, 3, 4, 5, 6, 10, 11
 
 
 @nb.njit(cache=True)
@@ -66,21 +67,11 @@ def joint_forces_packed_ws(arr: np.ndarray, par: np.ndarray, lamx: float, lamz: 
         acz[i] = 0.5 * ((az + qdd[0]) + (az_next + qdd[0]))
         ax = ax_next
         az = az_next
-    if drag == 2:  # the drag model chosen once: the Morison loop only with Morison drag
-        vx = 0.0
-        vz = qd[0]
-        for i in range(n):
-            li = l[i]
-            c = cth[i]
-            s = sth[i]
-            w = qd[i + 1]
-            vcx, vcz = centre_velocity(vx, vz, li, c, s, w, current)
-            dfx[i], dfz[i] = link_drag(c, s, vcx, vcz, cn[i], ct[i])
-            vx, vz = next_pin_velocity(vx, vz, li, c, s, w)
-    else:
-        for i in range(n):
-            dfx[i] = 0.0
-            dfz[i] = 0.0
+    for i in range(n):
+        dfx[i] = 0.0
+        dfz[i] = 0.0
+    if drag == 2:  # the same Morison forces as the forward dynamics (one implementation)
+        morison_drag(l, cn, ct, current, qd, cth, sth, dfx, dfz, ws[_J_PVX], ws[_J_PVZ])
     out[n, 0] = 0.0
     out[n, 1] = 0.0
     if constrained:

@@ -3,7 +3,8 @@
 * the links' cos/sin (:func:`link_trig`, vectorised; :func:`link_trig_libm`, numpy's bit for bit);
 * a link centre's velocity relative to the water, the next pin's velocity, a velocity in the
   link frame (``t = (cos, sin)`` normal, ``e = (sin, -cos)`` axis) and back;
-* the Morison drag force on a link centre; the joint spring/damper torques;
+* the Morison drag forces on the link centres (:func:`morison_drag`, for the forward dynamics
+  and the joint forces alike); the joint spring/damper torques;
 * whether the terminal load enters the recursion by Woodbury.
 
 Used by the sweeps (:mod:`cable_sim.core.kernel.sweeps`), the forward dynamics, the joint
@@ -79,38 +80,21 @@ def from_link_frame(vt: float, ve: float, c: float, s: float) -> tuple[float, fl
 
 
 @nb.njit(cache=True, inline="always")
-def link_drag(
-    c: float, s: float, vcx: float, vcz: float, cn: float, ct: float
-) -> tuple[float, float]:
-    """Morison force on one link centre (the dense ``link_drag_forces``' formula; its
-    ``hypot`` written as the square root of the sum of squares, equal to round-off and without
-    the libm call, which halves the cost of the drag loops)."""
-    vt_mag = link_frame_velocity(vcx, vcz, c, s)[1]  # axial component, e = (s, -c)
-    vtx = vt_mag * s
-    vtz = -vt_mag * c
-    vnx = vcx - vtx
-    vnz = vcz - vtz
-    vn_mag = np.sqrt(vnx * vnx + vnz * vnz)
-    fx = -cn * vn_mag * vnx - ct * abs(vt_mag) * vtx
-    fz = -cn * vn_mag * vnz - ct * abs(vt_mag) * vtz
-    return fx, fz
-
-
-@nb.njit(cache=True, inline="always")
 def morison_drag(
     l: np.ndarray, cn: np.ndarray, ct: np.ndarray, current: float, qd: np.ndarray,
     cth: np.ndarray, sth: np.ndarray, fgx: np.ndarray, fgz: np.ndarray, pvx: np.ndarray,
     pvz: np.ndarray,
 ) -> None:
-    """Add the Morison force on each link centre to ``fgx, fgz`` (:func:`link_drag`'s force,
-    equal to round-off), in two loops: the top pins' velocities (a running sum, into the scratch
-    ``pvx, pvz``, length n), then the forces, without a value carried from one link to the next
-    or a branch (it vectorises).
+    """Add the Morison force on each link centre to ``fgx, fgz`` (the dense
+    ``link_drag_forces``' force, equal to round-off), in two loops: the top pins' velocities (a
+    running sum, into the scratch ``pvx, pvz``, length n), then the forces, without a value
+    carried from one link to the next or a branch (it vectorises). The forward dynamics and the
+    joint forces both use it.
 
     The force is formed in the link frame: the centre's velocity relative to the water has the
     normal component ``v_n = (v_pin - current x) . t + w l/2`` and the axial one
     ``v_e = (v_pin - current x) . e``, and ``F = -c_n |v_n| v_n t - c_t |v_e| v_e e``. (The
-    normal part ``v - v_e e`` of :func:`link_drag` is ``v_n t``, its length ``|v_n|``: no square
+    normal part ``v - v_e e`` of the dense formula is ``v_n t``, its length ``|v_n|``: no square
     root, and no cancellation when the flow is nearly axial.)
     """
     n = l.shape[0]
