@@ -225,9 +225,33 @@ def test_bench_quick(tmp_path, capsys):
         assert set(bests) == {"cable_sim", "mujoco"}
         for eng, b in bests.items():
             assert float(b["rtf"]) == max(float(r["rtf"]) for r in chosen if r["engine"].startswith(eng))
+        # the two bests timed again in 7 interleaved pairs: one paired row per engine, same
+        # configuration as its best, the median of its 7 walls; the target is the median of the
+        # per-pair ratios (our RTF / MuJoCo's = MuJoCo's wall / ours), computed here from the walls
+        paired = {r["engine"].split()[0]: r for r in best if r["role"] == "paired"}
+        assert set(paired) == {"cable_sim", "mujoco"}
+        assert sum(r["role"] == "paired" for r in best) == 2
+        walls = {}
+        for eng, p in paired.items():
+            assert (p["integrator"], p["step"]) == (bests[eng]["integrator"], bests[eng]["step"])
+            assert int(p["repeats"]) == 7
+            walls[eng] = [float(w) for w in p["pair_walls"].split(";")]
+            assert len(walls[eng]) == 7 and all(w > 0 for w in walls[eng])
+            assert float(p["wall"]) == pytest.approx(float(np.median(walls[eng])), rel=1e-5)
+            assert float(p["rtf"]) == pytest.approx(float(p["duration"]) / float(p["wall"]), rel=1e-5)
+        per_pair = [m / o for m, o in zip(walls["mujoco"], walls["cable_sim"], strict=True)]
+        med = float(np.median(per_pair))
+        lo, mid, hi = (float(paired["cable_sim"][k]) for k in ("pair_ratio_min", "pair_ratio_median",
+                                                                "pair_ratio_max"))
+        assert lo <= mid <= hi
+        assert (lo, mid, hi) == pytest.approx((min(per_pair), med, max(per_pair)), rel=1e-5)
+        # the ratio of the medians lies within the per-pair ratios' range (both medians are
+        # monotone in the walls); 1e-5: the CSV's 6 digits
+        of_medians = float(paired["cable_sim"]["rtf"]) / float(paired["mujoco"]["rtf"])
+        assert lo * (1 - 1e-5) <= of_medians <= hi * (1 + 1e-5)
         tmj = next(r for r in targets if r["target"].startswith("vs MuJoCo"))
-        ratio = float(bests["cable_sim"]["rtf"]) / float(bests["mujoco"]["rtf"])
-        assert float(tmj["measured"]) == pytest.approx(ratio, rel=1e-5)
+        assert float(tmj["measured"]) == pytest.approx(med, rel=1e-5)
+        assert "median of 7 interleaved pairs" in tmj["detail"]
         assert (tmp_path / "mujoco_best.png").stat().st_size > 0
     # a second run reuses the cached references, and with --resume the measured rows
     capsys.readouterr()
@@ -245,6 +269,36 @@ def test_bench_quick(tmp_path, capsys):
         if r["target"].startswith(("node at n=2000", "recording overhead")):
             assert r["measured"] == "nan" and r["met"] == "False"
             assert "not measured in this run" in r["detail"]
+
+
+def _mj_rows(role: str) -> list[dict]:
+    """A best (or paired) row per engine as mujoco_best writes them: ours RTF 5000, MuJoCo's 100."""
+    rows = []
+    for engine, integ, step, rtf in (("cable_sim (fast)", "ros34prw", 0.05, 5000.0),
+                                     ("mujoco 4.0.0", "RK4", 0.004, 100.0)):
+        rows.append(dict(engine=engine, integrator=integ, n=80, step=step, duration=31.0, role=role,
+                         status="ok", repeats=3, wall=31.0 / rtf, rtf=rtf, rtf_incl_inputs=rtf,
+                         error_m=0.005, within_bound=True))
+    return rows
+
+
+def test_mujoco_target_paired_and_fallback():
+    """Without paired rows the target is the ratio of the two best rows (5000 / 100) and the detail
+    says so; with them it is the median per-pair ratio, with the range and number of pairs."""
+    from cable_sim.analysis.bench.targets import _mujoco_target
+
+    t = _mujoco_target(_mj_rows("best"))
+    assert t["measured"] == pytest.approx(50.0) and t["met"] and t["goal"] == ">= 50"
+    assert "no paired timings" in t["detail"] and "best of 3/3" in t["detail"]
+    paired = _mj_rows("paired")
+    for p, rtf in zip(paired, (4500.0, 100.0), strict=True):
+        p.update(repeats=5, rtf=rtf, pair_ratio_median=46.0, pair_ratio_min=41.0, pair_ratio_max=52.0)
+    t = _mujoco_target(_mj_rows("best") + paired)
+    assert t["measured"] == 46.0 and not t["met"]
+    assert "median of 5 interleaved pairs" in t["detail"] and "41 .. 52" in t["detail"]
+    assert "no paired timings" not in t["detail"]
+    t = _mujoco_target([])
+    assert math.isnan(t["measured"]) and not t["met"]
 
 
 def test_bench_quick_runs_contact_and_moordyn_studies(tmp_path, capsys):

@@ -5,8 +5,22 @@ integrator (RK4, implicitfast, implicit, Euler) and every fixed-step scheme of o
 ladder from the largest step down; the first step whose max joint-position error against our
 drag-off reference is within :data:`~.settings.ERROR_BOUND` is the scheme's largest step within
 the bound (a smaller step of the same scheme only costs more). That step is timed again (best of
-``repeats``); per engine the scheme with the highest real-time factor there is its best. The
-issue #13 target is the ratio of the two engines' best real-time factors.
+``repeats``); per engine the scheme with the highest real-time factor there is its best.
+
+The issue #13 target is the ratio of the two engines' best real-time factors. The ``best`` rows
+alone give a ratio that swings with the machine: on a shared VM the two engines' best-of-3
+timings are taken minutes apart, under different load (MuJoCo's RK4 at n = 80 has been timed at
+272 to 378 us per step, the ratio at 48x to 57x). So the two best configurations are then timed
+again in ``pairs`` interleaved pairs (rows with role ``paired``): in each pair one full-duration
+run of our best scheme at its step (the ladder's :func:`.runs.simulate` call) and one of MuJoCo's
+best at its step (the ladder's ``mj_step`` loop, one repeat), back to back, with the engine that
+goes first alternating between pairs. The two runs of a pair see nearly the same machine state,
+so their ratio (our RTF / MuJoCo's = MuJoCo's wall / ours) cancels most of the load common to
+both; the target is the median per-pair ratio, and the spread of the per-pair ratios
+(``pair_ratio_min`` .. ``pair_ratio_max``) shows how far a single pair can be trusted. Each
+``paired`` row has the median of its engine's walls (``wall``, ``rtf`` = duration / that median,
+``repeats`` = number of pairs) and every wall of the pairs in order (``pair_walls``,
+``;``-separated, seconds).
 
 ``mujoco`` is optional: without it :func:`mujoco_best` logs why and returns no rows.
 
@@ -94,11 +108,57 @@ def _best(rows: list[dict], prefix: str) -> list[dict]:
     return [{**max(chosen, key=lambda r: r["rtf"]), "role": "best"}]
 
 
+def _paired(mujoco, c: _Case, ours: dict, mj: dict, pairs: int, kernel: str) -> list[dict]:
+    """The two engines' best configurations timed in ``pairs`` interleaved pairs (our run first in
+    even pairs, MuJoCo's first in odd ones): one ``paired`` row per engine with the median wall,
+    every wall (``pair_walls``) and the per-pair ratios' median, min and max. A pair in which
+    either run fails is dropped; no complete pair: no rows."""
+    c.step, c.repeats = mj["step"], 1
+    mj_model, data = build(c.model, mj["step"], mj["integrator"])
+    walls_ours: list[float] = []
+    inputs_ours: list[float] = []
+    walls_mj: list[float] = []
+    for k in range(pairs):
+        got: dict[str, tuple[float, float] | None] = {}
+        for who in (("ours", "mujoco") if k % 2 == 0 else ("mujoco", "ours")):
+            if who == "ours":
+                r = simulate(SCENE, c.n, ours["integrator"], ours["step"], c.duration, budget=c.budget,
+                             drag="none", kernel=kernel)
+                got[who] = (r.wall, r.wall_inputs) if r.ok else None
+            else:
+                w, status, _ = _time_mujoco(mujoco, mj_model, data, c)
+                got[who] = (w[0], 0.0) if status == "ok" and w else None
+        if got["ours"] is None or got["mujoco"] is None:
+            log(f"mujoco-best pair {k + 1}/{pairs} dropped: a run failed")
+            continue
+        walls_ours.append(got["ours"][0])
+        inputs_ours.append(got["ours"][1])
+        walls_mj.append(got["mujoco"][0])
+        log(f"mujoco-best pair {k + 1}/{pairs}: ours {walls_ours[-1]:.4g} s, MuJoCo {walls_mj[-1]:.4g} s, "
+            f"ratio {walls_mj[-1] / walls_ours[-1]:.4g}")
+    if not walls_ours:
+        return []
+    # our RTF / MuJoCo's in the same pair = MuJoCo's wall / ours
+    ratios = np.array(walls_mj) / np.array(walls_ours)
+    spread = dict(pair_ratio_median=float(np.median(ratios)), pair_ratio_min=float(ratios.min()),
+                  pair_ratio_max=float(ratios.max()))
+    rows = []
+    for best, walls, inputs in ((ours, walls_ours, inputs_ours), (mj, walls_mj, [0.0] * len(walls_mj))):
+        wall = float(np.median(walls))
+        rows.append({**best, "role": "paired", "repeats": len(walls), "wall": wall,
+                     "rtf": best["duration"] / wall,
+                     "rtf_incl_inputs": best["duration"] / (wall + float(np.median(inputs))),
+                     **spread, "pair_walls": ";".join(f"{w:.9g}" for w in walls)})
+    return rows
+
+
 def mujoco_best(n: int, duration: float, cache: Path, dop853_max_n: int, ref_step: float, budget: float,
                 steps: list[float], ours: list[str], rtol: float = 1e-10, kernel: str = "fast",
-                repeats: int = 3) -> list[dict]:
+                repeats: int = 3, pairs: int = 7) -> list[dict]:
     """Rows of mujoco_best.csv: every ladder run (role ``ladder``), each scheme's largest step
-    within the bound timed again (``chosen``) and each engine's best (``best``)."""
+    within the bound timed again (``chosen``), each engine's best (``best``) and the two bests
+    timed again in ``pairs`` interleaved pairs (``paired``, one row per engine; none when
+    ``pairs`` is 0 or an engine has no best)."""
     try:
         import mujoco
     except ImportError as exc:
@@ -117,7 +177,10 @@ def mujoco_best(n: int, duration: float, cache: Path, dop853_max_n: int, ref_ste
             rows += _ours_ladder(integ, n, duration, ref, steps, budget, repeats, kernel)
     for r in rows:
         r["reference"] = desc
-    return rows + _best(rows, "cable_sim") + _best(rows, "mujoco")
+    best = _best(rows, "cable_sim") + _best(rows, "mujoco")
+    if len(best) == 2 and pairs > 0:
+        best += _paired(mujoco, c, best[0], best[1], pairs, kernel)
+    return rows + best
 
 
 def best_plot(out: Path, rows: list[dict]) -> None:

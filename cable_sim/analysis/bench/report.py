@@ -88,7 +88,10 @@ def _mujoco_best_section(rows: list[dict]) -> list[str]:
             "Euler; `mj_step(nstep=...)` per 0.5 s) and every fixed-step scheme of ours walks the step "
             "ladder from the largest step down; the first step within 1 cm of our drag-off reference "
             "(max joint-position error) is that scheme's largest step within 1 cm (`chosen`, timed "
-            "again: best of `repeats`); per engine the fastest `chosen` row is `best`. Every ladder "
+            "again: best of `repeats`); per engine the fastest `chosen` row is `best`. The two `best` "
+            "configurations are then timed again in interleaved pairs, alternating which engine goes "
+            "first (`paired` rows of mujoco_best.csv): the target's ratio is the median per-pair "
+            "ratio, as the two runs of a pair see the same machine load. Every ladder "
             "run: mujoco_best.csv; plot: mujoco_best.png.", "",
             _table(chosen, ["engine", "integrator", "n", "step", "role", "repeats", "rtf",
                             "rtf_incl_inputs", "error_m"], digits=4), ""]

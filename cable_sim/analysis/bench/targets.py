@@ -93,7 +93,10 @@ def _slope_rows(slopes: dict[str, float]) -> list[dict]:
 
 
 def _mujoco_target(best: list[dict]) -> dict:
-    """Our best RTF within 1 cm over MuJoCo's best, n = 80, drag off (:mod:`.mujoco_best`)."""
+    """Our best RTF within 1 cm over MuJoCo's best, n = 80, drag off (:mod:`.mujoco_best`): the
+    median per-pair ratio of the two bests timed in interleaved pairs (``paired`` rows), else,
+    without paired rows, the ratio of the two ``best`` rows (each best of its repeats, timed
+    apart), which the detail then says."""
     target = ("vs MuJoCo, n=80, drag off, each engine at its best scheme and largest step within "
               "1 cm: ratio of real-time factors")
     ours = next((r for r in best if r["engine"].startswith("cable_sim") and r["role"] == "best"), None)
@@ -106,8 +109,18 @@ def _mujoco_target(best: list[dict]) -> dict:
               f"(incl. input sampling {ours['rtf_incl_inputs']:.4g}), error {ours['error_m']:.2g} m; "
               f"{mj['engine']} {mj['integrator']} h={mj['step']:g} s RTF {mj['rtf']:.4g}, error "
               f"{mj['error_m']:.2g} m; n={ours['n']}, {ours['duration']:g} s, best of "
-              f"{ours['repeats']}/{mj['repeats']} timings (mujoco_best.csv)")
-    return _row(target, ratio, f">= {GOAL_MUJOCO_RATIO:g}", detail)
+              f"{ours['repeats']}/{mj['repeats']} timings")
+    p_ours = next((r for r in best if r["engine"].startswith("cable_sim") and r["role"] == "paired"), None)
+    p_mj = next((r for r in best if r["engine"].startswith("mujoco") and r["role"] == "paired"), None)
+    if p_ours is None or p_mj is None:
+        return _row(target, ratio, f">= {GOAL_MUJOCO_RATIO:g}",
+                    f"no paired timings: ratio of the two best-of-repeats RTFs, timed apart; {detail} "
+                    "(mujoco_best.csv)")
+    paired = (f"median of {p_ours['repeats']} interleaved pairs (per-pair ratio our RTF / MuJoCo's, "
+              f"range {p_ours['pair_ratio_min']:.4g} .. {p_ours['pair_ratio_max']:.4g}; median walls: "
+              f"ours RTF {p_ours['rtf']:.4g}, MuJoCo RTF {p_mj['rtf']:.4g}); ladder bests: {detail}, "
+              f"ratio {ratio:.4g} (mujoco_best.csv)")
+    return _row(target, p_ours["pair_ratio_median"], f">= {GOAL_MUJOCO_RATIO:g}", paired)
 
 
 def _read_csv(path: Path) -> list[dict]:
