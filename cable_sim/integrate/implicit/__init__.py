@@ -69,8 +69,11 @@ Modules: ``operator`` (the O(n) operator ``M + hg D + hg^2 K``: its theory and P
 compiled parts one per module: ``op_layout``, ``op_terms``, ``op_factor``, ``op_solve``,
 ``op_product``), ``run``
 (the compiled stepping loop), ``schemes`` (the integrator classes), ``ros34`` (ROS34PW2, fixed
-and adaptive, with its own compiled loops, parametrised by the tableau), ``ros34prw`` (ROS34PRw,
-the same loops with another tableau), ``dense`` (the dense reference operator and solve).
+and adaptive: its theory, dense reference step and integrator classes; its parts one per
+module: ``ros_tableau`` (a W-method's coefficients in both forms, ROS34PW2's), ``ros_step`` (the
+compiled step and fixed-step run, parametrised by the tableau), ``ros_adaptive`` (error norm, PI
+controller, compiled adaptive run)), ``ros34prw`` (ROS34PRw, the same loops with another
+tableau), ``dense`` (the dense reference operator and solve).
 
 Integrate layer: this ``__init__`` re-exports its modules' public API; they import numba,
 numpy, :mod:`cable_sim.core` and :mod:`cable_sim.integrate.base`.

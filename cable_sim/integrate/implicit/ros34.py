@@ -7,56 +7,41 @@ algebraic equations of index 1", BIT Numer. Math. 45 (2005) 761-787, method ROS3
 It is a *W-method*: order 3 for any approximation ``T`` of the Jacobian in
 ``W = I - h gamma T`` -- here the local damping/stiffness ``D``, ``K`` of
 :mod:`cable_sim.integrate.implicit.operator` -- L-stable (``R(inf) = 0``) and stiffly accurate;
-the embedded solution (weights ``b_hat``) is of order 2.
+the embedded solution (weights ``b_hat``) is of order 2. It runs in the transformed variables
+(:mod:`cable_sim.integrate.implicit.ros_tableau`) with one factorisation of
+``M~ = M + hg D + hg^2 K`` (``hg = gamma h``), four O(n) solves and four force evaluations per
+step (:mod:`cable_sim.integrate.implicit.ros_step`).
 
-Classical form (``k_i`` the stage increments, ``T`` the approximate Jacobian)::
+The drag part of ``D`` is linearised at the predicted velocity ``v + h a(q, v)``
+(``predict_drag``, default): at rest the paper drag's Jacobian is zero, and linearised at ``v``
+the first steps of a free fall treat the drag explicitly (measured at n = 80: unstable from
+50 ms; with the prediction stable to 125 ms). Any ``W`` keeps the W-method's order.
 
-    (I - h gamma T) k_i = h f(t + alpha_i h, y + sum_j alpha_ij k_j) + h T sum_j gamma_ij k_j
-    y' = y + sum_i b_i k_i,      y_hat' = y + sum_i b_hat_i k_i
+The coefficients are one :class:`~cable_sim.integrate.implicit.ros_tableau.RosTableau` (class
+attribute ``tableau``); the compiled step, runs and the dense reference step take them as
+arguments, so another four-stage W-method (:mod:`cable_sim.integrate.implicit.ros34prw`) is a
+subclass that swaps the tableau. The adaptive scheme (:class:`Ros34PW2Adaptive`) controls the
+joint-mapped max norm of the embedded difference
+(:func:`~cable_sim.integrate.implicit.ros_adaptive.err_norm`).
 
-It is run in the transformed variables ``s_i = sum_j gamma_ij k_j / h`` (Hairer & Wanner,
-Solving ODEs II, IV.7), which need no product with ``T``::
+Modules: ``ros_tableau`` (:class:`RosTableau`, :func:`ros_tableau`, ROS34PW2's coefficients
+:data:`TABLEAU`), ``ros_step`` (the compiled step and the fixed-step run), ``ros_adaptive``
+(error norm, PI controller, input interpolation and the compiled adaptive run). This module
+keeps the dense reference step, the integrator classes :class:`Ros34PW2`,
+:class:`Ros34PW2Adaptive` and re-exports the names the other modules and the tests use.
 
-    (I - h gamma T) s_i = gamma (f(Y_i) + sum_j c_ij s_j),   Y_i = y + h sum_j a_ij s_j
-    y' = y + h sum_i m_i s_i,       a = alpha Gamma^-1, c = diag(1/gamma) - Gamma^-1, m = b Gamma^-1
-
-For the cable, ``y = (q, v)``, ``f = (v, a(q, v))``, ``T = [[0, I], [-M^-1 K, -M^-1 D]]``, and
-a stage with right-hand side ``(rq, rv)`` is (as in :class:`~.schemes.Rosenbrock2`)
-``sv = rv - M~^-1 (hg D rv + hg K (rq + hg rv))``, ``sq = rq + hg sv`` with
-``M~ = M + hg D + hg^2 K``, ``hg = gamma h``: one factorisation and four O(n) solves and four
-force evaluations per step. The drag part of ``D`` is linearised at the predicted velocity
-``v + h a(q, v)`` (``predict_drag``, default): at rest the paper drag's Jacobian is zero, and
-linearised at ``v`` the first steps of a free fall treat the drag explicitly (measured at n = 80:
-unstable from 50 ms; with the prediction stable to 125 ms). Any ``W`` keeps the W-method's order.
-
-The coefficients are one :class:`RosTableau` (class attribute ``tableau``); the compiled step,
-runs and the dense reference step take them as arguments, so another four-stage W-method
-(:mod:`cable_sim.integrate.implicit.ros34prw`) is a subclass that swaps the tableau.
-
-Error norm of the adaptive scheme (:class:`Ros34PW2Adaptive`): the embedded difference,
-mapped to the joints (linearised: ``dp_j = dz e_z + sum_{i<j} l_i (cos th_i, sin th_i) dth_i``,
-likewise the joint velocities), in the max norm over joints with scale
-``atol + rtol |p_j - p_0|`` (positions, m) and ``atol + rtol |v_j|`` (velocities, m/s): the
-tolerance is on what the user reads, the joint positions.
-
-Integrate layer: imports numba, numpy, :mod:`cable_sim.core` (dynamics, kernel, system),
+Integrate layer: imports numpy, :mod:`cable_sim.core` (dynamics, kernel, model, params, system),
 :mod:`cable_sim.integrate.base`, :mod:`cable_sim.integrate.checks`,
-:mod:`cable_sim.integrate.errors` and the sibling modules ``dense`` and ``operator``.
+:mod:`cable_sim.integrate.errors` and the sibling modules ``dense``, ``operator``,
+``ros_tableau``, ``ros_step`` and ``ros_adaptive``.
 """
 
 from __future__ import annotations
 
-import math
-from typing import NamedTuple
-
-import numba as nb
 import numpy as np
 
 from cable_sim.core import dynamics
 from cable_sim.core import kernel as fast
-from cable_sim.core.kernel.checks import STATUS_OK, STATUS_SINGULAR, check_packed, check_packed_ws
-from cable_sim.core.kernel.forward import fd_packed_ws, fd_trig
-from cable_sim.core.kernel.links import link_trig
 from cable_sim.core.kernel.signals import sample_program
 from cable_sim.core.model import CableModel
 from cable_sim.core.params import CableParams
@@ -65,386 +50,36 @@ from cable_sim.integrate.base import _WARMED, Integrator
 from cable_sim.integrate.checks import disarm
 from cable_sim.integrate.errors import ENERGY_JUMP, OSCILLATION, IntegrationError
 from cable_sim.integrate.implicit.dense import _dense_solve, dense_operator
-from cable_sim.integrate.implicit.operator import _dk_product, _op_solve
 from cable_sim.integrate.implicit.operator import geometric_stiffness as _geometric_stiffness
-from cable_sim.integrate.implicit.run import _factor_at, factor_workspace
-
-# --------------------------------------------------------------------------------------------
-# Coefficients (Rang & Angermann 2005, ROS34PW2; classical form)
-# --------------------------------------------------------------------------------------------
-
-#: Diagonal gamma of ROS34PW2.
-GAMMA = 4.3586652150845900e-01
-#: alpha_ij (strictly lower triangular).
-ALPHA = np.array([
-    [0.0, 0.0, 0.0, 0.0],
-    [8.7173304301691801e-01, 0.0, 0.0, 0.0],
-    [8.4457060015369423e-01, -1.1299064236484185e-01, 0.0, 0.0],
-    [0.0, 0.0, 1.0, 0.0],
-])
-#: gamma_ij (lower triangular, diagonal GAMMA).
-GAMMA_IJ = np.array([
-    [GAMMA, 0.0, 0.0, 0.0],
-    [-8.7173304301691801e-01, GAMMA, 0.0, 0.0],
-    [-9.0338057013044082e-01, 5.4180672388095326e-02, GAMMA, 0.0],
-    [2.4212380706095346e-01, -1.2232505839045147e+00, 5.4526025533510214e-01, GAMMA],
-])
-#: Weights of the order-3 solution.
-B = np.array([2.4212380706095346e-01, -1.2232505839045147e+00, 1.5452602553351020e+00, GAMMA])
-#: Weights of the embedded order-2 solution.
-B_HAT = np.array([3.7810903145819369e-01, -9.6042292212423178e-02, 0.5, 2.1793326075422950e-01])
-
-
-class RosTableau(NamedTuple):
-    """A Rosenbrock W-method in both forms: the classical coefficients (``gamma``, ``alpha``,
-    ``gamma_ij`` with diagonal ``gamma``, weights ``b`` and embedded ``b_hat``), the stage times
-    ``c_times`` (row sums of ``alpha``) and the transformed coefficients ``a_t``, ``c_t``,
-    ``m_t``, ``e_t`` the compiled step runs on (see the module docstring). Built by
-    :func:`ros_tableau`."""
-
-    name: str
-    gamma: float
-    alpha: np.ndarray
-    gamma_ij: np.ndarray
-    b: np.ndarray
-    b_hat: np.ndarray
-    c_times: np.ndarray
-    a_t: np.ndarray
-    c_t: np.ndarray
-    m_t: np.ndarray
-    e_t: np.ndarray
-
-
-def ros_tableau(name: str, gamma: float, alpha: np.ndarray, gamma_ij: np.ndarray, b: np.ndarray,
-                b_hat: np.ndarray) -> RosTableau:
-    """The :class:`RosTableau` of a Rosenbrock W-method given in the classical form (Hairer &
-    Wanner IV.7): ``a = alpha Gamma^-1``, ``c = diag(1/gamma) - Gamma^-1``, ``m = b Gamma^-1``,
-    ``e = (b - b_hat) Gamma^-1``."""
-    ginv = np.linalg.inv(gamma_ij)
-    return RosTableau(name, float(gamma), alpha, gamma_ij, b, b_hat, alpha.sum(axis=1),
-                      alpha @ ginv, np.diag(np.diag(ginv)) - ginv, b @ ginv, (b - b_hat) @ ginv)
-
-
-#: ROS34PW2 in both forms.
-TABLEAU = ros_tableau("ROS34PW2", GAMMA, ALPHA, GAMMA_IJ, B, B_HAT)
-#: Stage times alpha_i (fractions of h) = row sums of ALPHA.
-C_TIMES = TABLEAU.c_times
-#: Transformed coefficients (see the module docstring).
-A_T = TABLEAU.a_t
-C_T = TABLEAU.c_t  # diag(1/gamma) - Gamma^-1: strictly lower
-M_T = TABLEAU.m_t
-E_T = TABLEAU.e_t  # error weights: y' - y_hat' = h sum_i E_T[i] s_i
-
-#: Status of the adaptive kernel when the step size fell below its floor (not a check status).
-STATUS_STEP_UNDERFLOW = 100
+from cable_sim.integrate.implicit.ros_adaptive import (
+    _K_EXP,
+    STATUS_STEP_UNDERFLOW,
+    _accepted_step,
+    _clip,
+    _interp,
+    _rejected_step,
+    _ros_adaptive_run,
+    err_norm,
+)
+from cable_sim.integrate.implicit.ros_step import _ros_fixed_run, _ros_step, _workspace
+from cable_sim.integrate.implicit.ros_tableau import (
+    A_T,
+    ALPHA,
+    B_HAT,
+    C_T,
+    C_TIMES,
+    E_T,
+    GAMMA,
+    GAMMA_IJ,
+    M_T,
+    TABLEAU,
+    B,
+    RosTableau,
+    ros_tableau,
+)
 
 #: Default input-sampling spacing of the adaptive scheme [s] (cubic interpolation in between).
 INPUT_SPACING = 0.02
-
-
-# --------------------------------------------------------------------------------------------
-# Compiled step
-# --------------------------------------------------------------------------------------------
-
-
-@nb.njit(cache=True)
-def _ros_step(arr: np.ndarray, par: np.ndarray, geometric: bool, predict: bool, h: float, us: np.ndarray,
-              es: np.ndarray, y: np.ndarray, yn: np.ndarray, err: np.ndarray, fs: tuple,
-              sq: np.ndarray, sv: np.ndarray, wk: np.ndarray, at: np.ndarray, ct: np.ndarray,
-              mt: np.ndarray, et: np.ndarray, gamma: float, trig_ready: bool = False) -> bool:
-    """One step of h of the W-method with transformed coefficients ``at, ct, mt, et`` and
-    diagonal ``gamma`` (ROS34PW2's or another's, :class:`RosTableau`) from y into ``yn`` and the
-    embedded difference into ``err`` (both ``2(n+1)``); ``us[i], es[i]`` are the inputs at stage
-    i's time. Returns False when a force evaluation or the factorisation is singular. ``fs`` is
-    the factorisation's scratch (:func:`cable_sim.integrate.implicit.run.factor_workspace`),
-    ``wk`` a (9, n+1) workspace. ``trig_ready``: the forward dynamics' workspace (``fs[0]``)
-    holds the links' cos/sin at y already (:func:`cable_sim.core.kernel.forward.fd_trig`; the
-    fixed-step run leaves those of the check there), not recomputed by the first stage."""
-    n1 = y.shape[0] // 2
-    hg = gamma * h
-    fw, jw, F, kgeo, W, S, X = fs
-    acc = wk[2]
-    rd = wk[3]
-    rk = wk[4]
-    rhs = wk[5]
-    x = wk[6]
-    lam = wk[8, :2]
-    ns = at.shape[0]
-    # the stage combinations run stage by stage over whole rows (vectorised loops), adding the
-    # terms in the same order as a per-entry sum over the stages: the same arithmetic
-    Yq = wk[0]
-    Yv = wk[1]
-    for i in range(ns):
-        for j in range(n1):
-            Yq[j] = y[j]
-            Yv[j] = y[n1 + j]
-        for m in range(i):
-            c = h * at[i, m]
-            for j in range(n1):
-                Yq[j] += c * sq[m, j]
-                Yv[j] += c * sv[m, j]
-        if not fd_packed_ws(arr, par, us[i], es[i], Yq, Yv, acc, lam, fw, trig_ready and i == 0):
-            return False
-        if i == 0:
-            # drag linearised at the predicted velocity v + h a (a W-method keeps its order for
-            # any W; at rest the drag Jacobian at v itself is zero and the first steps of a
-            # free fall would treat the drag explicitly)
-            vp = wk[7]
-            for j in range(n1):
-                vp[j] = Yv[j] + h * acc[j] if predict else Yv[j]
-            if not _factor_at(arr, par, geometric, hg, Yq, Yv, acc, lam, vp, fw, jw, F, kgeo, W, S,
-                              X, h):
-                return False
-        for j in range(n1):
-            rk[j] = Yv[j]  # the sums of rq, rv first (in rk, rd)
-            rd[j] = acc[j]
-        for m in range(i):
-            c = ct[i, m]
-            for j in range(n1):
-                rk[j] += c * sq[m, j]
-                rd[j] += c * sv[m, j]
-        for j in range(n1):
-            rq = rk[j] * gamma
-            rv = rd[j] * gamma
-            rd[j] = rv
-            rk[j] = rq + hg * rv
-            sq[i, j] = rq  # completed below
-        _dk_product(arr, par, hg, W, rd, rk, rhs)
-        _op_solve(arr, par, W, S, X, rhs, x)
-        for j in range(n1):
-            sv[i, j] = rd[j] - x[j]
-            sq[i, j] += hg * sv[i, j]
-    dq = wk[0]  # the stage rows are free now: the weighted sums of the stages
-    dv = wk[1]
-    eq = wk[2]
-    ev = wk[3]
-    for j in range(n1):
-        dq[j] = 0.0
-        dv[j] = 0.0
-        eq[j] = 0.0
-        ev[j] = 0.0
-    for i in range(ns):
-        mi = mt[i]
-        ei = et[i]
-        for j in range(n1):
-            dq[j] += mi * sq[i, j]
-            dv[j] += mi * sv[i, j]
-            eq[j] += ei * sq[i, j]
-            ev[j] += ei * sv[i, j]
-    for j in range(n1):
-        yn[j] = y[j] + h * dq[j]
-        yn[n1 + j] = y[n1 + j] + h * dv[j]
-        err[j] = h * eq[j]
-        err[n1 + j] = h * ev[j]
-    return True
-
-
-@nb.njit(cache=True, inline="always")
-def _workspace(n: int, ns: int):
-    """Scratch arrays of one compiled run (the factorisation's scratch of
-    :func:`cable_sim.integrate.implicit.run.factor_workspace`, stage positions/velocities, work
-    rows, new state and error) for n links and ns stages."""
-    n1 = n + 1
-    return (factor_workspace(n), np.zeros((ns, n1)), np.zeros((ns, n1)),
-            np.zeros((9, max(n1, 2))), np.empty(2 * n1), np.empty(2 * n1))
-
-
-@nb.njit(cache=True)
-def _ros_fixed_run(arr: np.ndarray, par: np.ndarray, geometric: bool, predict: bool, h: float, u: np.ndarray,
-                   eta: np.ndarray, y: np.ndarray, chk: np.ndarray, info: np.ndarray,
-                   at: np.ndarray, ct: np.ndarray, mt: np.ndarray, et: np.ndarray,
-                   gamma: float) -> int:
-    """``u.shape[0]`` checked fixed steps (``u[k, i]``: input at stage i of step k), in place
-    on y; as :func:`cable_sim.integrate.implicit.run._implicit_run`."""
-    ns = at.shape[0]
-    n = arr.shape[1]
-    fs, sq, sv, wk, yn, err = _workspace(n, ns)
-    # the links' cos/sin at y in the forward dynamics' workspace: the check of each step leaves
-    # those of the new state there, the next step's first force evaluation reuses them
-    cth, sth = fd_trig(fs[0], n)
-    link_trig(y, cth, sth)
-    for k in range(u.shape[0]):
-        info[1] = k
-        ok = _ros_step(arr, par, geometric, predict, h, u[k], eta[k], y, yn, err, fs, sq, sv, wk,
-                       at, ct, mt, et, gamma, True)
-        info[0] += ns
-        if not ok:
-            return STATUS_SINGULAR
-        if par[10] == 0.0:  # (anchored: the check's projection recomputes them)
-            link_trig(yn, cth, sth)
-        status = check_packed_ws(arr, par, yn, chk, info, cth, sth)
-        if status != STATUS_OK:
-            return status
-        y[:] = yn
-    return STATUS_OK
-
-
-@nb.njit(cache=True)
-def _clip(t: float, t1: float, h: float) -> tuple[float, bool]:
-    """The next step from t towards t1 with the proposal h, and whether it ends on t1: the
-    remainder when it is at most h, half of it when it is below 2 h (no sliver step)."""
-    r = t1 - t
-    if r <= h * (1.0 + 1e-12):
-        return r, True
-    if r < 2.0 * h:
-        return 0.5 * r, False
-    return h, False
-
-
-@nb.njit(cache=True, inline="always")
-def _interp(t: float, t0: float, dt: float, vals: np.ndarray) -> float:
-    """Cubic Lagrange interpolation of samples ``vals`` on the grid ``t0 + k dt``."""
-    nn = vals.shape[0]
-    if nn == 1:
-        return vals[0]
-    k = int(math.floor((t - t0) / dt)) - 1
-    k = max(0, min(k, nn - 4)) if nn >= 4 else 0
-    m = min(4, nn)
-    s = 0.0
-    for a in range(m):
-        ta = t0 + (k + a) * dt
-        w = 1.0
-        for b in range(m):
-            if b != a:
-                w *= (t - (t0 + (k + b) * dt)) / (ta - (t0 + (k + b) * dt))
-        s += w * vals[k + a]
-    return s
-
-
-@nb.njit(cache=True)
-def err_norm(arr: np.ndarray, y: np.ndarray, yn: np.ndarray, err: np.ndarray, atol: float,
-             rtol: float) -> float:
-    """Scaled max norm of the embedded difference ``err`` mapped to the joints (linearised
-    positions and velocities relative to the fairlead, see the module docstring)."""
-    n1 = y.shape[0] // 2
-    l = arr[0]
-    px = 0.0
-    pz = 0.0
-    vx = 0.0
-    vz = 0.0
-    dpx = 0.0
-    dvx = 0.0
-    dz0 = err[0]
-    dvz0 = err[n1]
-    sc = atol + rtol * max(abs(yn[n1]), abs(y[n1]))
-    out = max(abs(dvz0) / sc, abs(dz0) / atol)
-    dpz = 0.0
-    dvz = 0.0
-    for i in range(n1 - 1):
-        th = yn[1 + i]
-        w = yn[n1 + 1 + i]
-        c = math.cos(th)
-        s = math.sin(th)
-        li = l[i]
-        dth = err[1 + i]
-        dw = err[n1 + 1 + i]
-        px += li * s
-        pz -= li * c
-        vx += li * c * w
-        vz += li * s * w
-        dpx += li * c * dth
-        dpz += li * s * dth
-        dvx += li * (c * dw - s * w * dth)
-        dvz += li * (s * dw + c * w * dth)
-        sp = atol + rtol * math.sqrt(px * px + pz * pz)
-        sv_ = atol + rtol * math.sqrt(vx * vx + (vz + yn[n1]) ** 2)
-        e = max(math.sqrt(dpx * dpx + (dpz + dz0) ** 2) / sp,
-                math.sqrt(dvx * dvx + (dvz + dvz0) ** 2) / sv_)
-        if e > out:
-            out = e
-    return out
-
-
-#: 1 / (embedded order + 1): the exponent of the step-size controller.
-_K_EXP = 1.0 / 3.0
-
-
-@nb.njit(cache=True)
-def _rejected_step(ctl: np.ndarray, en: float, hs: float) -> float:
-    """The retry step after a step of size ``hs`` was rejected with error norm ``en`` (inf: the
-    step failed); resets the growth count ``ctl[11]``. ``ctl`` as in :func:`_ros_adaptive_run`."""
-    safety, fmin = ctl[2], ctl[3]
-    fac = fmin if not np.isfinite(en) else max(fmin, min(1.0, safety * en ** (-_K_EXP)))
-    ctl[11] = 0.0
-    return hs * fac
-
-
-@nb.njit(cache=True)
-def _accepted_step(ctl: np.ndarray, en: float, hs: float, h: float, last: bool) -> float:
-    """The next step after an accepted step of size ``hs`` (proposed ``h``; ``last``: it was clipped
-    to the interval's end) with error norm ``en``: PI controller (Gustafsson),
-    fac = safety en^(-0.7 k) en_prev^(0.4 k), k = 1/3; updates ``ctl[8]`` (the previous error)
-    and ``ctl[11]`` (steps grown in a row)."""
-    safety, fmin, fmax, hmax = ctl[2], ctl[3], ctl[4], ctl[5]
-    en = max(en, 1e-10)
-    ep = ctl[8] if ctl[8] > 0.0 else en
-    fac = safety * en ** (-0.7 * _K_EXP) * ep ** (0.4 * _K_EXP)
-    # growth cap: at most 1.4 once the step grew in each of the last two steps, so that
-    # steadily growing steps are not read as a runaway mode by the check
-    cap = fmax if ctl[11] < 2.0 else min(fmax, 1.4)
-    fac = max(fmin, min(cap, fac))
-    ctl[11] = ctl[11] + 1.0 if fac > 1.4 else 0.0
-    if hs >= h * (1.0 - 1e-12):  # a shortened step's error says little about h
-        ctl[8] = en
-    hnew = min(hs * fac, hmax)
-    if last and hs < h:
-        hnew = max(hnew, h) if fac >= 1.0 else min(h, hnew)  # a clipped last step: keep h
-    return hnew
-
-
-@nb.njit(cache=True)
-def _ros_adaptive_run(arr: np.ndarray, par: np.ndarray, geometric: bool, predict: bool, t0: float, t1: float,
-                      tin0: float, tdt: float, uin: np.ndarray, ein: np.ndarray, y: np.ndarray,
-                      chk: np.ndarray, info: np.ndarray, ctl: np.ndarray, at: np.ndarray,
-                      ct: np.ndarray, ctimes: np.ndarray, mt: np.ndarray, et: np.ndarray,
-                      gamma: float) -> int:
-    """Adaptive steps from t0 to exactly t1, in place on y.
-
-    Inputs: samples ``uin, ein`` on the grid ``tin0 + k tdt`` (cubic interpolation).
-    ``ctl = [atol, rtol, safety, fac_min, fac_max, h_max, h_min, h (in: proposal; out: next
-    proposal), err_prev, jump-allowance rate, runaway-floor rate, growths in a row]``.
-    ``chk[7]``, ``chk[10]`` are set per step from the rates (both proportional to the step).
-    ``info = [force evaluations, accepted steps, value, t reached, rejected steps]``.
-    """
-    ns = at.shape[0]
-    fs, sq, sv, wk, yn, err = _workspace(arr.shape[1], ns)
-    us = np.empty(ns)
-    es = np.empty(ns)
-    atol, rtol, hmax, hmin = ctl[0], ctl[1], ctl[5], ctl[6]
-    h = min(ctl[7], hmax)
-    t = t0
-    while t < t1:
-        hs, last = _clip(t, t1, h)
-        for i in range(ns):
-            ts = t + ctimes[i] * hs
-            us[i] = _interp(ts, tin0, tdt, uin)
-            es[i] = _interp(ts, tin0, tdt, ein)
-        ok = _ros_step(arr, par, geometric, predict, hs, us, es, y, yn, err, fs, sq, sv, wk, at,
-                       ct, mt, et, gamma)
-        info[0] += ns
-        en = err_norm(arr, y, yn, err, atol, rtol) if ok else np.inf
-        if not np.isfinite(en) or en > 1.0:
-            info[4] += 1
-            h = _rejected_step(ctl, en, hs)
-            if h < hmin:
-                info[3] = t
-                info[2] = h
-                return STATUS_STEP_UNDERFLOW
-            continue
-        chk[7] = ctl[9] * hs
-        if chk.shape[0] > 10:
-            chk[10] = ctl[10] * hs
-        status = check_packed(arr, par, yn, chk, info)
-        if status != STATUS_OK:
-            info[3] = t + hs
-            return status
-        y[:] = yn
-        info[1] += 1
-        t = t1 if last else t + hs
-        h = _accepted_step(ctl, en, hs, h, last)
-    ctl[7] = h
-    info[3] = t
-    return STATUS_OK
 
 
 # --------------------------------------------------------------------------------------------
@@ -538,10 +173,11 @@ class Ros34PW2Adaptive(Ros34PW2):
     Order 3 (the propagated solution; the estimate is order 2), L-stable, see :class:`Ros34PW2`.
     :meth:`advance` steps adaptively from t to exactly ``t_end`` (the output grid stays fixed:
     the last step of an interval is shortened to end on it, the controller's proposal carries
-    over to the next interval). Error per step: the joint-mapped max norm of the module
-    docstring against ``atol + rtol |.|``; PI controller (Gustafsson) with safety factor,
-    ``fac_min``/``fac_max`` bounds and rejection. Inputs are sampled every ``input_spacing`` s
-    (at least four samples per interval) and interpolated cubically inside the compiled loop.
+    over to the next interval). Error per step: the joint-mapped max norm of
+    :mod:`cable_sim.integrate.implicit.ros_adaptive` against ``atol + rtol |.|``; PI controller
+    (Gustafsson) with safety factor, ``fac_min``/``fac_max`` bounds and rejection. Inputs are
+    sampled every ``input_spacing`` s (at least four samples per interval) and interpolated
+    cubically inside the compiled loop.
 
     Parameters
     ----------
@@ -715,4 +351,8 @@ class Ros34PW2Adaptive(Ros34PW2):
 
 
 __all__ = ["ALPHA", "B", "B_HAT", "GAMMA", "GAMMA_IJ", "TABLEAU", "RosTableau", "Ros34PW2",
-           "Ros34PW2Adaptive", "err_norm", "ros_tableau"]
+           "Ros34PW2Adaptive", "err_norm", "ros_tableau",
+           # re-exported from ros_tableau, ros_step, ros_adaptive (importers of ros34 keep working)
+           "A_T", "C_T", "C_TIMES", "E_T", "M_T", "INPUT_SPACING", "STATUS_STEP_UNDERFLOW", "fast",
+           "_K_EXP", "_accepted_step", "_clip", "_dense_ros_step", "_interp", "_rejected_step",
+           "_ros_adaptive_run", "_ros_fixed_run", "_ros_step", "_workspace"]
