@@ -4,7 +4,7 @@ fallback (:mod:`cable_sim.integrate.implicit.dense`); :data:`INTEGRATORS` by nam
 
 Integrate layer: imports numpy, :mod:`cable_sim.core` (dynamics, system),
 :mod:`cable_sim.integrate.base` and the sibling modules ``dense``, ``operator``, ``run``,
-``ros34`` (ROS34PW2) and ``ros34prw`` (ROS34PRw), registered here.
+``ros34`` (ROS34PW2), ``ros34prw`` (ROS34PRw) and ``w6s4os`` (W6S4OS), registered here.
 """
 
 from __future__ import annotations
@@ -19,6 +19,7 @@ from cable_sim.integrate.implicit.operator import geometric_stiffness
 from cable_sim.integrate.implicit.ros34 import Ros34PW2, Ros34PW2Adaptive
 from cable_sim.integrate.implicit.ros34prw import Ros34PRw, Ros34PRwAdaptive
 from cable_sim.integrate.implicit.run import _implicit_run
+from cable_sim.integrate.implicit.w6s4os import W6S4OS
 
 
 class _LinearlyImplicit(Integrator):
@@ -167,4 +168,5 @@ INTEGRATORS: dict[str, type[Integrator]] = {
     "ros34pw2_adaptive": Ros34PW2Adaptive,
     "ros34prw": Ros34PRw,
     "ros34prw_adaptive": Ros34PRwAdaptive,
+    "w6s4os": W6S4OS,
 }
