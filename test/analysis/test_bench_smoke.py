@@ -226,8 +226,9 @@ def test_bench_quick(tmp_path, capsys):
         for eng, b in bests.items():
             assert float(b["rtf"]) == max(float(r["rtf"]) for r in chosen if r["engine"].startswith(eng))
         # the two bests timed again in 7 interleaved pairs: one paired row per engine, same
-        # configuration as its best, the median of its 7 walls; the target is the median of the
-        # per-pair ratios (our RTF / MuJoCo's = MuJoCo's wall / ours), computed here from the walls
+        # configuration as its best, the median of its 7 per-pair walls (ours: the mean of the
+        # pair's runs); the target is the median of the per-pair ratios (our RTF / MuJoCo's =
+        # MuJoCo's wall / our mean wall), computed here from the walls
         paired = {r["engine"].split()[0]: r for r in best if r["role"] == "paired"}
         assert set(paired) == {"cable_sim", "mujoco"}
         assert sum(r["role"] == "paired" for r in best) == 2
@@ -239,6 +240,19 @@ def test_bench_quick(tmp_path, capsys):
             assert len(walls[eng]) == 7 and all(w > 0 for w in walls[eng])
             assert float(p["wall"]) == pytest.approx(float(np.median(walls[eng])), rel=1e-5)
             assert float(p["rtf"]) == pytest.approx(float(p["duration"]) / float(p["wall"]), rel=1e-5)
+        # equal windows: in each pair our runs, back to back, until their walls add up to
+        # MuJoCo's wall of the pair (MuJoCo first: odd pairs, counted from 0), or, ours first,
+        # of the previous pair (the first pair: MuJoCo's best row); all 7 pairs are there, so
+        # pair k is the k-th entry. Our runs' total (count x mean) reaches that window; 1e-5:
+        # the best row's wall has the CSV's 6 digits. (That the loop stops at the first run
+        # reaching it is not checkable: the CSV has the mean of a pair's runs, not the last.)
+        counts = [int(m) for m in paired["cable_sim"]["pair_our_runs"].split(";")]
+        assert paired["mujoco"]["pair_our_runs"] == paired["cable_sim"]["pair_our_runs"]
+        assert len(counts) == 7 and min(counts) >= 1
+        mjw = walls["mujoco"]
+        windows = [float(bests["mujoco"]["wall"])] + [mjw[k] if k % 2 else mjw[k - 1] for k in range(1, 7)]
+        for k, (m, o, win) in enumerate(zip(counts, walls["cable_sim"], windows, strict=True)):
+            assert m * o >= win * (1 - 1e-5), (k, m, o, win)
         per_pair = [m / o for m, o in zip(walls["mujoco"], walls["cable_sim"], strict=True)]
         med = float(np.median(per_pair))
         lo, mid, hi = (float(paired["cable_sim"][k]) for k in ("pair_ratio_min", "pair_ratio_median",
@@ -251,7 +265,8 @@ def test_bench_quick(tmp_path, capsys):
         assert lo * (1 - 1e-5) <= of_medians <= hi * (1 + 1e-5)
         tmj = next(r for r in targets if r["target"].startswith("vs MuJoCo"))
         assert float(tmj["measured"]) == pytest.approx(med, rel=1e-5)
-        assert "median of 7 interleaved pairs" in tmj["detail"]
+        assert "median of 7 interleaved pairs of equal wall windows" in tmj["detail"]
+        assert f"{min(counts)} .. {max(counts)} runs of ours" in tmj["detail"]
         assert (tmp_path / "mujoco_best.png").stat().st_size > 0
     # a second run reuses the cached references, and with --resume the measured rows
     capsys.readouterr()
@@ -292,10 +307,12 @@ def test_mujoco_target_paired_and_fallback():
     assert "no paired timings" in t["detail"] and "best of 3/3" in t["detail"]
     paired = _mj_rows("paired")
     for p, rtf in zip(paired, (4500.0, 100.0), strict=True):
-        p.update(repeats=5, rtf=rtf, pair_ratio_median=46.0, pair_ratio_min=41.0, pair_ratio_max=52.0)
+        p.update(repeats=5, rtf=rtf, pair_ratio_median=46.0, pair_ratio_min=41.0, pair_ratio_max=52.0,
+                 pair_our_runs="30;28;33;29;31")
     t = _mujoco_target(_mj_rows("best") + paired)
     assert t["measured"] == 46.0 and not t["met"]
     assert "median of 5 interleaved pairs" in t["detail"] and "41 .. 52" in t["detail"]
+    assert "28 .. 33 runs of ours" in t["detail"]
     assert "no paired timings" not in t["detail"]
     t = _mujoco_target([])
     assert math.isnan(t["measured"]) and not t["met"]

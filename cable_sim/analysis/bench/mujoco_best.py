@@ -11,16 +11,24 @@ The issue #13 target is the ratio of the two engines' best real-time factors. Th
 alone give a ratio that swings with the machine: on a shared VM the two engines' best-of-3
 timings are taken minutes apart, under different load (MuJoCo's RK4 at n = 80 has been timed at
 272 to 378 us per step, the ratio at 48x to 57x). So the two best configurations are then timed
-again in ``pairs`` interleaved pairs (rows with role ``paired``): in each pair one full-duration
-run of our best scheme at its step (the ladder's :func:`.runs.simulate` call) and one of MuJoCo's
-best at its step (the ladder's ``mj_step`` loop, one repeat), back to back, with the engine that
-goes first alternating between pairs. The two runs of a pair see nearly the same machine state,
-so their ratio (our RTF / MuJoCo's = MuJoCo's wall / ours) cancels most of the load common to
-both; the target is the median per-pair ratio, and the spread of the per-pair ratios
-(``pair_ratio_min`` .. ``pair_ratio_max``) shows how far a single pair can be trusted. Each
-``paired`` row has the median of its engine's walls (``wall``, ``rtf`` = duration / that median,
-``repeats`` = number of pairs) and every wall of the pairs in order (``pair_walls``,
-``;``-separated, seconds).
+again in ``pairs`` interleaved pairs (rows with role ``paired``), with the engine that goes first
+alternating between pairs. In each pair MuJoCo's best at its step runs once (the ladder's
+``mj_step`` loop, one repeat) and our best scheme at its step (the ladder's
+:func:`.runs.simulate` call, full duration) runs back to back as many times as it takes for the
+timed walls of our runs to add up to MuJoCo's wall (at least once; the loop stops at the first
+run that reaches it); our wall of the pair is the mean of those runs. When our runs go first,
+MuJoCo's wall of that pair is not known yet: they fill MuJoCo's wall of the previous pair
+(the first pair: the wall of MuJoCo's ``best`` row). Equal windows, because a single run of ours
+is short (rk4 at n = 80 over 31 s: ~25 ms against MuJoCo's ~1.2 s): one short run is hit or
+missed by a load burst that MuJoCo's long run averages over (one run each gave per-pair ratios
+of 35 to 64), while two windows of the same length, back to back, see the same machine state
+on average. So the per-pair ratio (our RTF / MuJoCo's = MuJoCo's wall / our mean wall) cancels
+most of the load common to both; the target is the median per-pair ratio, and the spread of the
+per-pair ratios (``pair_ratio_min`` .. ``pair_ratio_max``) shows how far a single pair can be
+trusted. Each ``paired`` row has the median of its engine's per-pair walls (``wall``, ``rtf`` =
+duration / that median, ``repeats`` = number of pairs), every per-pair wall in order
+(``pair_walls``, ``;``-separated, seconds; ours: the mean of the pair's runs) and the number of
+our runs in each pair (``pair_our_runs``, ``;``-separated; the same on both rows).
 
 ``mujoco`` is optional: without it :func:`mujoco_best` logs why and returns no rows.
 
@@ -109,46 +117,72 @@ def _best(rows: list[dict], prefix: str) -> list[dict]:
 
 
 def _paired(mujoco, c: _Case, ours: dict, mj: dict, pairs: int, kernel: str) -> list[dict]:
-    """The two engines' best configurations timed in ``pairs`` interleaved pairs (our run first in
-    even pairs, MuJoCo's first in odd ones): one ``paired`` row per engine with the median wall,
-    every wall (``pair_walls``) and the per-pair ratios' median, min and max. A pair in which
-    either run fails is dropped; no complete pair: no rows."""
+    """The two engines' best configurations timed in ``pairs`` interleaved pairs (ours first in
+    even pairs, MuJoCo first in odd ones), our runs repeated in each pair until their walls add
+    up to MuJoCo's wall of the pair (of the previous pair, or of its ``best`` row, when ours go
+    first): one ``paired`` row per engine with the median per-pair wall, every per-pair wall
+    (``pair_walls``; ours: the mean of the pair's runs), the number of our runs per pair
+    (``pair_our_runs``) and the per-pair ratios' median, min and max. A pair in which any run
+    fails is dropped; no complete pair: no rows."""
     c.step, c.repeats = mj["step"], 1
     mj_model, data = build(c.model, mj["step"], mj["integrator"])
+
+    def mujoco_once() -> float | None:
+        w, status, _ = _time_mujoco(mujoco, mj_model, data, c)
+        return w[0] if status == "ok" and w else None
+
+    def ours_window(window: float) -> list[tuple[float, float]] | None:
+        """(wall, input-sampling wall) of our runs, back to back until their walls reach
+        ``window`` (at least one run); None if one fails."""
+        runs: list[tuple[float, float]] = []
+        total = 0.0
+        while not runs or total < window:
+            r = simulate(SCENE, c.n, ours["integrator"], ours["step"], c.duration, budget=c.budget,
+                         drag="none", kernel=kernel)
+            if not r.ok:
+                return None
+            runs.append((r.wall, r.wall_inputs))
+            total += r.wall
+        return runs
+
     walls_ours: list[float] = []
     inputs_ours: list[float] = []
+    runs_ours: list[int] = []
     walls_mj: list[float] = []
+    last_mj = float(mj["wall"])  # MuJoCo's latest wall: the window of ours when ours go first
     for k in range(pairs):
-        got: dict[str, tuple[float, float] | None] = {}
-        for who in (("ours", "mujoco") if k % 2 == 0 else ("mujoco", "ours")):
-            if who == "ours":
-                r = simulate(SCENE, c.n, ours["integrator"], ours["step"], c.duration, budget=c.budget,
-                             drag="none", kernel=kernel)
-                got[who] = (r.wall, r.wall_inputs) if r.ok else None
-            else:
-                w, status, _ = _time_mujoco(mujoco, mj_model, data, c)
-                got[who] = (w[0], 0.0) if status == "ok" and w else None
-        if got["ours"] is None or got["mujoco"] is None:
+        if k % 2 == 0:
+            got = ours_window(last_mj)
+            mj_wall = mujoco_once() if got is not None else None
+        else:
+            mj_wall = mujoco_once()
+            got = ours_window(mj_wall) if mj_wall is not None else None
+        if mj_wall is not None:
+            last_mj = mj_wall
+        if got is None or mj_wall is None:
             log(f"mujoco-best pair {k + 1}/{pairs} dropped: a run failed")
             continue
-        walls_ours.append(got["ours"][0])
-        inputs_ours.append(got["ours"][1])
-        walls_mj.append(got["mujoco"][0])
-        log(f"mujoco-best pair {k + 1}/{pairs}: ours {walls_ours[-1]:.4g} s, MuJoCo {walls_mj[-1]:.4g} s, "
-            f"ratio {walls_mj[-1] / walls_ours[-1]:.4g}")
+        walls_ours.append(float(np.mean([w for w, _ in got])))
+        inputs_ours.append(float(np.mean([i for _, i in got])))
+        runs_ours.append(len(got))
+        walls_mj.append(mj_wall)
+        log(f"mujoco-best pair {k + 1}/{pairs}: ours {walls_ours[-1]:.4g} s (mean of {runs_ours[-1]}), "
+            f"MuJoCo {walls_mj[-1]:.4g} s, ratio {walls_mj[-1] / walls_ours[-1]:.4g}")
     if not walls_ours:
         return []
-    # our RTF / MuJoCo's in the same pair = MuJoCo's wall / ours
+    # our RTF / MuJoCo's in the same pair = MuJoCo's wall / our mean wall
     ratios = np.array(walls_mj) / np.array(walls_ours)
     spread = dict(pair_ratio_median=float(np.median(ratios)), pair_ratio_min=float(ratios.min()),
                   pair_ratio_max=float(ratios.max()))
+    our_runs = ";".join(str(m) for m in runs_ours)
     rows = []
     for best, walls, inputs in ((ours, walls_ours, inputs_ours), (mj, walls_mj, [0.0] * len(walls_mj))):
         wall = float(np.median(walls))
         rows.append({**best, "role": "paired", "repeats": len(walls), "wall": wall,
                      "rtf": best["duration"] / wall,
                      "rtf_incl_inputs": best["duration"] / (wall + float(np.median(inputs))),
-                     **spread, "pair_walls": ";".join(f"{w:.9g}" for w in walls)})
+                     **spread, "pair_walls": ";".join(f"{w:.9g}" for w in walls),
+                     "pair_our_runs": our_runs})
     return rows
 
 

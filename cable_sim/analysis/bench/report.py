@@ -90,8 +90,10 @@ def _mujoco_best_section(rows: list[dict]) -> list[str]:
             "(max joint-position error) is that scheme's largest step within 1 cm (`chosen`, timed "
             "again: best of `repeats`); per engine the fastest `chosen` row is `best`. The two `best` "
             "configurations are then timed again in interleaved pairs, alternating which engine goes "
-            "first (`paired` rows of mujoco_best.csv): the target's ratio is the median per-pair "
-            "ratio, as the two runs of a pair see the same machine load. Every ladder "
+            "first (`paired` rows of mujoco_best.csv); in each pair one MuJoCo run is matched by our "
+            "runs repeated back to back over the same wall time (their count: `pair_our_runs`; our "
+            "wall: their mean): the target's ratio is the median per-pair ratio, as two equal windows "
+            "back to back see the same machine load on average. Every ladder "
             "run: mujoco_best.csv; plot: mujoco_best.png.", "",
             _table(chosen, ["engine", "integrator", "n", "step", "role", "repeats", "rtf",
                             "rtf_incl_inputs", "error_m"], digits=4), ""]

@@ -94,7 +94,8 @@ def _slope_rows(slopes: dict[str, float]) -> list[dict]:
 
 def _mujoco_target(best: list[dict]) -> dict:
     """Our best RTF within 1 cm over MuJoCo's best, n = 80, drag off (:mod:`.mujoco_best`): the
-    median per-pair ratio of the two bests timed in interleaved pairs (``paired`` rows), else,
+    median per-pair ratio of the two bests timed in interleaved pairs of equal wall windows
+    (``paired`` rows: one MuJoCo run against our runs repeated over the same wall time), else,
     without paired rows, the ratio of the two ``best`` rows (each best of its repeats, timed
     apart), which the detail then says."""
     target = ("vs MuJoCo, n=80, drag off, each engine at its best scheme and largest step within "
@@ -116,7 +117,11 @@ def _mujoco_target(best: list[dict]) -> dict:
         return _row(target, ratio, f">= {GOAL_MUJOCO_RATIO:g}",
                     f"no paired timings: ratio of the two best-of-repeats RTFs, timed apart; {detail} "
                     "(mujoco_best.csv)")
-    paired = (f"median of {p_ours['repeats']} interleaved pairs (per-pair ratio our RTF / MuJoCo's, "
+    counts = [int(m) for m in str(p_ours.get("pair_our_runs") or "").split(";") if m]
+    runs = f"{min(counts)} .. {max(counts)} runs of ours" if counts else "runs of ours"
+    paired = (f"median of {p_ours['repeats']} interleaved pairs of equal wall windows (each pair: one "
+              f"MuJoCo run and {runs} back to back over the same wall time, their mean wall; "
+              f"per-pair ratio our RTF / MuJoCo's, "
               f"range {p_ours['pair_ratio_min']:.4g} .. {p_ours['pair_ratio_max']:.4g}; median walls: "
               f"ours RTF {p_ours['rtf']:.4g}, MuJoCo RTF {p_mj['rtf']:.4g}); ladder bests: {detail}, "
               f"ratio {ratio:.4g} (mujoco_best.csv)")
