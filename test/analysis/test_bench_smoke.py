@@ -168,6 +168,15 @@ def test_bench_quick(tmp_path, capsys):
             assert math.isfinite(v) and v >= 0, (key, r)
         assert float(r["wall"]) > 0 and int(r["nfev"]) > 0
         assert math.isfinite(float(r["step"] if r["kind"] == "fixed" else r["rtol"]))
+        if r["kind"] == "fixed":  # mean accepted step of a fixed-step run: its step
+            assert abs(float(r["mean_step"]) / float(r["step"]) - 1.0) < 1e-9, r
+    # the compiled adaptive scheme counts its accepted steps: the mean step shrinks with rtol
+    for scene in ("paper_free_fall", "paper_anchored_forced"):
+        rr = [r for r in wp if r["scene"] == scene and r["integrator"] == "ros34pw2_adaptive"
+              and r["n"] == "8"]
+        means = [float(r["mean_step"]) for r in rr]  # ladder order: loose to tight
+        assert len(means) >= 2 and all(0 < m <= 0.5 for m in means), (scene, means)
+        assert all(a > b for a, b in zip(means[:-1], means[1:], strict=True)), (scene, means)
     # the error shrinks with the step / tolerance (rk4 order 4, rosenbrock2 order 2, DOP853)
     for scene in ("paper_free_fall", "paper_anchored_forced"):
         for integ, ratio in (("rk4", 100), ("rosenbrock2", 10), ("dop853", 10)):
@@ -360,3 +369,23 @@ def test_bench_rejects_unknown_integrator(tmp_path, capsys):
     assert bench.main(["--quick", "--out", str(tmp_path), "--integrators", "euler_maruyama"]) == 2
     err = capsys.readouterr().err
     assert "euler_maruyama" in err and "rk4" in err
+
+
+def test_step_target_reports_the_adaptive_mean_step() -> None:
+    """The largest-step target names the adaptive run within 1 cm with the largest mean step."""
+    from cable_sim.analysis.bench.targets import _step_target
+
+    def row(integ, kind, step, rtol, err, mean_step):
+        return dict(scene="paper_free_fall", n=640, integrator=integ, kind=kind, step=step, rtol=rtol,
+                    status="ok", error_m=err, rtf=100.0, duration=31.0, mean_step=mean_step)
+
+    nan = float("nan")
+    wp = [row("ros34pw2", "fixed", 0.005, nan, 0.005, 0.005),
+          row("ros34pw2_adaptive", "adaptive", nan, 1e-4, 0.0068, 0.0155),
+          row("ros34pw2_adaptive", "adaptive", nan, 1e-3, 0.019, 0.025),  # over 1 cm: not named
+          row("dop853", "adaptive", nan, 1e-6, 0.001, nan)]  # steps not counted: not named
+    t = _step_target(wp, 640, 0.02)
+    assert t["measured"] == 0.005 and not t["met"]
+    assert "ros34pw2_adaptive rtol=0.0001" in t["detail"] and "2000 accepted steps" in t["detail"]
+    assert "rtol=0.001 " not in t["detail"] and "dop853" not in t["detail"]
+    assert "adaptive" not in _step_target(wp[:1], 640, 0.02)["detail"]

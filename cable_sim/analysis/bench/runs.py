@@ -183,6 +183,7 @@ def _run_adaptive(run: Run, sc: Scene, t: np.ndarray, budget: float
         return None
     run.wall = time.perf_counter() - t0
     run.nfev = sys_.nfev
+    run.nsteps = int(getattr(integ, "nsteps", 0) or 0)  # accepted steps (0: not counted, scipy)
     sys_.rhs = rhs
     return sim, traj.y
 

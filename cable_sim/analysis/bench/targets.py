@@ -83,7 +83,23 @@ def _step_target(wp: list[dict], n: int, goal: float) -> dict:
     big = max(stable, key=lambda r: r["step"])
     detail = (f"{', '.join(ties)} (error {b['error_m']:.3g} m, RTF {b['rtf']:.4g}); largest stable "
               f"step of the ladder {big['step']:g} s ({big['integrator']}, error {big['error_m']:.3g} m)")
-    return _row(target, b["step"], f">= {goal:g}", detail, b["duration"] >= FREE_FALL_FULL - 1e-9)
+    return _row(target, b["step"], f">= {goal:g}", detail + _adaptive_mean_step(wp, n),
+                b["duration"] >= FREE_FALL_FULL - 1e-9)
+
+
+def _adaptive_mean_step(wp: list[dict], n: int) -> str:
+    """The adaptive run within 1 cm with the largest mean accepted step (duration / accepted
+    steps) at n, as a sentence of the step target's detail ("" without one)."""
+    ok = [r for r in wp if r["scene"] == "paper_free_fall" and r["n"] == n and r["kind"] == "adaptive"
+          and r["status"] == "ok" and r["error_m"] <= ERROR_BOUND
+          and math.isfinite(float(r.get("mean_step", "nan") or "nan"))]
+    if not ok:
+        return ""
+    a = max(ok, key=lambda r: float(r["mean_step"]))
+    steps = round(float(a["duration"]) / float(a["mean_step"]))
+    return (f"; adaptive: {a['integrator']} rtol={float(a['rtol']):g} within 1 cm "
+            f"(error {float(a['error_m']):.3g} m) with a mean step of {float(a['mean_step']):.3g} s "
+            f"({steps} accepted steps)")
 
 
 def _slope_rows(slopes: dict[str, float]) -> list[dict]:
