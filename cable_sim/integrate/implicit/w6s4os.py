@@ -21,7 +21,7 @@ check (test/integrate/test_w6s4os.py), independently of this code where they can
   O(z^5)``, ``|R| <= 1`` on the negative real axis, ``R(z) -> 0`` as ``z -> -inf``. It is not
   A-stable: ``|R(iy)|`` reaches 1.0064 on the imaginary axis (A(89.5 deg)-stable), so lightly
   damped fast modes can grow slowly at large steps. At n = 640 this shows: at 20 ms its error
-  on the free fall is 1.2 m where ROS34PW2's is 0.11 m (README, "Integrators"). It is the
+  on the free fall is 1.2 m where ROS34PW2's is 0.11 m (README, "Speed against error"). It is the
   scheme for moderate n.
 
 Six force evaluations, one O(n) factorisation and six O(n) solves per step (1.5 times a ROS34
