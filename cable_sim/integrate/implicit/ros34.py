@@ -148,9 +148,15 @@ class Ros34PW2(Integrator):
 
     name = "ros34pw2"
     order = 3
-    #: The scheme's coefficients (a subclass with another four-stage W-method swaps only these).
+    #: The scheme's coefficients (a subclass with another W-method, of any number of stages,
+    #: swaps only these; its stage times for the input sampling follow from them).
     tableau: RosTableau = TABLEAU
     _fast_offsets = tuple(float(c) for c in TABLEAU.c_times)
+
+    def __init_subclass__(cls, **kwargs) -> None:
+        """Derive a subclass's input-sampling offsets from its tableau's stage times."""
+        super().__init_subclass__(**kwargs)
+        cls._fast_offsets = tuple(float(c) for c in cls.tableau.c_times)
 
     def __init__(self, system: CableSystem, step: float = 1e-2, geometric_stiffness: bool = True,
                  predict_drag: bool = True, **kwargs) -> None:

@@ -94,7 +94,6 @@ class Ros34PRw(Ros34PW2):
     name = "ros34prw"
     order = 3
     tableau = TABLEAU
-    _fast_offsets = tuple(float(c) for c in TABLEAU.c_times)
 
 
 class Ros34PRwAdaptive(Ros34PW2Adaptive):
@@ -118,7 +117,6 @@ class Ros34PRwAdaptive(Ros34PW2Adaptive):
     name = "ros34prw_adaptive"
     order = 3
     tableau = TABLEAU
-    _fast_offsets = tuple(float(c) for c in TABLEAU.c_times)
 
 
 __all__ = ["ALPHA", "B", "B_HAT", "GAMMA", "GAMMA_IJ", "TABLEAU", "Ros34PRw", "Ros34PRwAdaptive"]

@@ -117,7 +117,6 @@ class W6S4OS(Ros34PW2):
     name = "w6s4os"
     order = 4
     tableau = TABLEAU
-    _fast_offsets = tuple(float(c) for c in TABLEAU.c_times)
 
 
 __all__ = ["A_T", "C_T", "C_TIMES_LISTED", "GAMMA", "M_T", "TABLEAU", "W6S4OS",
