@@ -95,6 +95,23 @@ def test_timed_path_equals_advance(scene, integ):
     assert a.wall > 0 and a.wall_inputs > 0
 
 
+@pytest.mark.parametrize("scene,integ,tol", [("paper_free_fall", "tsit5", 1e-6),
+                                             ("paper_anchored_forced", "dopri5", 1e-6),
+                                             ("paper_anchored_forced", "ros34pw2_adaptive", 1e-4)])
+def test_timed_adaptive_path_equals_advance(scene, integ, tol):
+    """Our compiled adaptive schemes are timed per interval around the compiled run alone
+    (:func:`adaptive_stepper`): the same steps and states as :meth:`Integrator.integrate`."""
+    if bench.pick_kernel()[0] != "fast" or integ not in bench.available_integrators():
+        pytest.skip("no compiled adaptive run here")
+    a = bench.simulate(scene, 6, integ, tol, 2.0, compiled_timing=True)
+    b = bench.simulate(scene, 6, integ, tol, 2.0, compiled_timing=False)
+    assert a.ok and b.ok
+    assert a.timing.startswith("compiled adaptive run") and not b.timing.startswith("compiled")
+    np.testing.assert_array_equal(a.pos, b.pos)  # same compiled run, same controller state
+    assert a.nsteps == b.nsteps > 0 and a.nfev == b.nfev > 0
+    assert a.wall > 0 and a.wall_inputs > 0
+
+
 def _read(path):
     with open(path) as f:
         return list(csv.DictReader(f))
@@ -325,6 +342,10 @@ def test_mujoco_target_paired_and_fallback():
     assert "no paired timings" not in t["detail"]
     t = _mujoco_target([])
     assert math.isnan(t["measured"]) and not t["met"]
+    adaptive = _mj_rows("best")
+    adaptive[0].update(integrator="tsit5", rtol=1e-4, step=0.031)  # an adaptive best: its mean step
+    t = _mujoco_target(adaptive)
+    assert "ours tsit5 rtol=atol=0.0001 (mean step 0.031 s)" in t["detail"]
 
 
 def test_bench_quick_runs_contact_and_moordyn_studies(tmp_path, capsys):

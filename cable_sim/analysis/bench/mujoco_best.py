@@ -4,8 +4,11 @@ Paper free fall with drag off (the chain of :mod:`.mujoco_chain`), at n links: e
 integrator (RK4, implicitfast, implicit, Euler) and every fixed-step scheme of ours walks the step
 ladder from the largest step down; the first step whose max joint-position error against our
 drag-off reference is within :data:`~.settings.ERROR_BOUND` is the scheme's largest step within
-the bound (a smaller step of the same scheme only costs more). That step is timed again (best of
-``repeats``); per engine the scheme with the highest real-time factor there is its best.
+the bound (a smaller step of the same scheme only costs more). Our compiled adaptive schemes walk
+the tolerance ladder :data:`ADAPTIVE_TOLS` from the loosest down in the same way (their rows:
+``rtol`` = atol, ``step`` = the mean step); scipy's adaptive schemes are not run here. That
+setting is timed again (best of ``repeats``); per engine the scheme with the highest real-time
+factor there is its best.
 
 The issue #13 target is the ratio of the two engines' best real-time factors. The ``best`` rows
 alone give a ratio that swings with the machine: on a shared VM the two engines' best-of-3
@@ -45,15 +48,20 @@ from .mujoco_chain import build
 from .mujoco_compare import SCENE, _Case, _time_mujoco
 from .references import reference
 from .runs import error, is_adaptive, make_scene, simulate
-from .settings import ERROR_BOUND, log
+from .settings import ERROR_BOUND, SCIPY_ADAPTIVE, log
 
 MUJOCO_INTEGRATORS = ("RK4", "implicitfast", "implicit", "Euler")
+#: Tolerance ladder (rtol = atol) of our adaptive schemes, loosest first: 10^(1/8) apart, fine
+#: enough that the chosen tolerance is within a factor 1.34 of the loosest within the bound.
+ADAPTIVE_TOLS = tuple(float(x) for x in np.geomspace(1e-3, 1e-6, 25))
 
 
 def _row(engine: str, integ: str, n: int, step: float, duration: float, status: str, walls: list[float],
-         err: float, role: str, wall_inputs: float = 0.0) -> dict:
+         err: float, role: str, wall_inputs: float = 0.0, rtol: float = float("nan")) -> dict:
+    """One CSV row; ``step``: the fixed step, or an adaptive run's mean step (its tolerance:
+    ``rtol`` = atol; nan for a fixed-step scheme)."""
     wall = min(walls) if walls else float("nan")
-    return dict(engine=engine, integrator=integ, n=n, step=step, duration=duration, role=role,
+    return dict(engine=engine, integrator=integ, n=n, step=step, rtol=rtol, duration=duration, role=role,
                 status=status, repeats=len(walls), wall=wall, rtf=duration / wall,
                 rtf_incl_inputs=duration / (wall + wall_inputs), error_m=err,
                 within_bound=bool(status == "ok" and err <= ERROR_BOUND))
@@ -82,17 +90,28 @@ def _mujoco_ladder(mujoco, c: _Case, integ: str, steps: list[float], repeats: in
     return rows
 
 
+def _setting(row: dict) -> float:
+    """What :func:`.runs.simulate` takes for the scheme of our ``row``: rtol = atol or the step."""
+    return row["rtol"] if is_adaptive(row["integrator"]) else row["step"]
+
+
 def _ours_ladder(integ: str, n: int, duration: float, ref, steps: list[float], budget: float,
                  repeats: int, kernel: str) -> list[dict]:
-    """One of our fixed-step schemes down the ladder; the chosen step timed ``repeats`` times."""
+    """One of our schemes down the ladder (fixed step: ``steps``, largest first; adaptive:
+    :data:`ADAPTIVE_TOLS`, loosest first); the first setting within the bound timed ``repeats``
+    times. An adaptive row's ``step`` is its mean step (duration / accepted steps)."""
     eng = f"cable_sim ({kernel})"
+    adaptive = is_adaptive(integ)
     rows = []
-    for h in sorted(steps, reverse=True):
-        r = simulate(SCENE, n, integ, h, duration, budget=budget, drag="none", kernel=kernel)
+    for s in (ADAPTIVE_TOLS if adaptive else sorted(steps, reverse=True)):
+        r = simulate(SCENE, n, integ, s, duration, budget=budget, drag="none", kernel=kernel)
         err = error(r, ref) if r.ok else float("nan")
+        h = duration / max(1, r.nsteps) if adaptive else s
+        rtol = s if adaptive else float("nan")
         rows.append(_row(eng, integ, n, h, duration, r.status, [r.wall] if r.ok else [], err, "ladder",
-                         r.wall_inputs))
-        log(f"mujoco-best ours {integ} n={n} h={h:g}: {r.status} err {err:.3g} m RTF {rows[-1]['rtf']:.4g}")
+                         r.wall_inputs, rtol))
+        log(f"mujoco-best ours {integ} n={n} {'rtol' if adaptive else 'h'}={s:g}: {r.status} err {err:.3g} m "
+            f"RTF {rows[-1]['rtf']:.4g}")
         if r.status.startswith("skipped"):
             break
         if rows[-1]["within_bound"]:
@@ -100,10 +119,10 @@ def _ours_ladder(integ: str, n: int, duration: float, ref, steps: list[float], b
             for _ in range(repeats - 1):
                 if r.wall * (len(runs) + 1) > budget:
                     break
-                runs.append(simulate(SCENE, n, integ, h, duration, budget=budget, drag="none", kernel=kernel))
+                runs.append(simulate(SCENE, n, integ, s, duration, budget=budget, drag="none", kernel=kernel))
             ok = [x for x in runs if x.ok]
             rows.append(_row(eng, integ, n, h, duration, "ok", [x.wall for x in ok], err, "chosen",
-                             min(x.wall_inputs for x in ok)))
+                             min(x.wall_inputs for x in ok), rtol))
             break
     return rows
 
@@ -137,7 +156,7 @@ def _paired(mujoco, c: _Case, ours: dict, mj: dict, pairs: int, kernel: str) -> 
         runs: list[tuple[float, float]] = []
         total = 0.0
         while not runs or total < window:
-            r = simulate(SCENE, c.n, ours["integrator"], ours["step"], c.duration, budget=c.budget,
+            r = simulate(SCENE, c.n, ours["integrator"], _setting(ours), c.duration, budget=c.budget,
                          drag="none", kernel=kernel)
             if not r.ok:
                 return None
@@ -207,7 +226,7 @@ def mujoco_best(n: int, duration: float, cache: Path, dop853_max_n: int, ref_ste
     for integ in MUJOCO_INTEGRATORS:
         rows += _mujoco_ladder(mujoco, c, integ, steps, repeats)
     for integ in ours:
-        if not is_adaptive(integ):
+        if integ not in SCIPY_ADAPTIVE:  # scipy's run the right-hand side in Python: not contenders
             rows += _ours_ladder(integ, n, duration, ref, steps, budget, repeats, kernel)
     for r in rows:
         r["reference"] = desc

@@ -153,13 +153,43 @@ def compiled_stepper(integ) -> Callable | None:
     return advance
 
 
-def _run_adaptive(run: Run, sc: Scene, t: np.ndarray, budget: float
+def adaptive_stepper(integ) -> Callable | None:
+    """``advance(t0, y, t1) -> (y1, wall_stepping, wall_inputs)`` through an adaptive scheme's
+    compiled run (:class:`cable_sim.integrate.adaptive.AdaptiveStepping`), or None when it has
+    none (scipy's schemes, dense kernel): as :func:`compiled_stepper`, what
+    :meth:`AdaptiveStepping.advance` does, with the input sampling and the arming of the checks
+    timed apart from the compiled run."""
+    if not (getattr(integ, "compiled", False) and hasattr(integ, "_run_adaptive")):
+        return None
+
+    def advance(t0: float, y: np.ndarray, t1: float) -> tuple[np.ndarray, float, float]:
+        w0 = time.perf_counter()
+        y, dt, u, eta = integ._begin(t0, y, t1)
+        arr, par, chk, yc, info = integ._arm_adaptive(t0, y, t1, u, eta)
+        w1 = time.perf_counter()
+        try:
+            status = integ._run_adaptive(arr, par, float(t0), float(t1), float(t0), float(dt), u, eta,
+                                         yc, chk, info, integ._ctl)
+        finally:
+            disarm(chk)
+        w2 = time.perf_counter()
+        return integ._finish_adaptive(status, t1 - t0, info, chk, yc), w2 - w1, w1 - w0
+
+    return advance
+
+
+def _run_adaptive(run: Run, sc: Scene, t: np.ndarray, budget: float, compiled_timing: bool = True
                   ) -> tuple[Simulation, np.ndarray] | None:
-    """One ``solve_ivp`` call at rtol = atol = ``run.setting``; None when it failed or ran over
-    ``budget`` (``run.status`` says which)."""
+    """One adaptive run at rtol = atol = ``run.setting``: our compiled schemes timed per 0.5 s
+    interval as the fixed-step ones (:func:`adaptive_stepper`), scipy's as one ``solve_ivp``
+    call; None when it failed or ran over ``budget`` (``run.status`` says which)."""
     nout = len(t) - 1
     sim = Simulation(sc, kernel=run.kernel, integrator="rk4", step=SAMPLE)
     integ = make_integrator(run.integrator, sim.system, SAMPLE, rtol=run.setting, atol=run.setting)
+    stepper = adaptive_stepper(integ) if compiled_timing else None
+    if stepper is not None:
+        return _run_intervals(run, sim, integ, stepper, t, budget,
+                              "compiled adaptive run, one call per 0.5 s, inputs sampled apart")
     sys_ = sim.system
     rhs = sys_.rhs
     deadline = time.perf_counter() + budget
@@ -192,13 +222,27 @@ def _run_fixed(run: Run, sc: Scene, t: np.ndarray, budget: float, compiled_timin
                ) -> tuple[Simulation, np.ndarray] | None:
     """Steps of ``run.setting`` s, timed per 0.5 s interval; None when it failed or was projected
     over ``budget`` after the first interval (``run.status`` says which)."""
-    nout = len(t) - 1
     sim = Simulation(sc, kernel=run.kernel, integrator=run.integrator, step=run.setting)
     integ = sim.integrator
     stepper = compiled_stepper(integ) if compiled_timing else None
-    run.timing = ("compiled stepper, one call per 0.5 s, inputs sampled apart" if stepper
-                  else "Integrator.advance per 0.5 s")
-    nfev0 = sim.system.nfev
+    done = _run_intervals(run, sim, integ, stepper, t, budget,
+                          "compiled stepper, one call per 0.5 s, inputs sampled apart")
+    if done is not None:
+        run.nsteps = (len(t) - 1) * max(1, int(np.ceil(SAMPLE / integ.h - 1e-9)))
+        if stepper is not None:
+            run.nfev = run.nsteps * _fevals(integ)
+    return done
+
+
+def _run_intervals(run: Run, sim: Simulation, integ, stepper: Callable | None, t: np.ndarray,
+                   budget: float, timing: str) -> tuple[Simulation, np.ndarray] | None:
+    """``integ`` over the sample intervals of ``t``, each through ``stepper`` (``timing`` names
+    it) or :meth:`Integrator.advance`; sets ``run.wall``, ``run.wall_inputs``, ``run.nfev``
+    (counted by the system) and ``run.nsteps`` (the integrator's count); None when a step failed
+    or the run was projected over ``budget`` after the first interval."""
+    nout = len(t) - 1
+    run.timing = timing if stepper else "Integrator.advance per 0.5 s"
+    nfev0, nsteps0 = sim.system.nfev, integ.nsteps
     ys = np.empty((nout + 1, sim.y0.size))
     ys[0] = y = sim.y0
     wall = wall_in = 0.0
@@ -220,8 +264,8 @@ def _run_fixed(run: Run, sc: Scene, t: np.ndarray, budget: float, compiled_timin
             run.status = f"skipped: projected {(wall + wall_in) * nout:.0f} s > budget {budget:.0f} s"
             return None
     run.wall, run.wall_inputs = wall, wall_in
-    run.nsteps = nout * max(1, int(np.ceil(SAMPLE / integ.h - 1e-9)))
-    run.nfev = sim.system.nfev - nfev0 if stepper is None else run.nsteps * _fevals(integ)
+    run.nsteps = integ.nsteps - nsteps0
+    run.nfev = sim.system.nfev - nfev0
     return sim, ys
 
 
@@ -237,7 +281,7 @@ def simulate(scene_name: str, n: int, integrator: str, setting: float, duration:
     nout = int(round(duration / SAMPLE))
     t = np.arange(nout + 1) * SAMPLE
     if is_adaptive(integrator):
-        done = _run_adaptive(run, sc, t, budget)
+        done = _run_adaptive(run, sc, t, budget, compiled_timing)
     else:
         done = _run_fixed(run, sc, t, budget, compiled_timing)
     if done is None:

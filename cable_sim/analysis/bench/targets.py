@@ -19,6 +19,7 @@ import math
 from pathlib import Path
 
 from .cost import best_under
+from .runs import is_adaptive
 from .settings import ERROR_BOUND
 
 #: Goals of issue #13.
@@ -122,7 +123,9 @@ def _mujoco_target(best: list[dict]) -> dict:
         return _row(target, float("nan"), f">= {GOAL_MUJOCO_RATIO:g}",
                     "not measured (mujoco missing, --no-mujoco, or no run within 1 cm)")
     ratio = ours["rtf"] / mj["rtf"]
-    detail = (f"ours {ours['integrator']} h={ours['step']:g} s RTF {ours['rtf']:.4g} "
+    how = (f"rtol=atol={float(ours['rtol']):g} (mean step {ours['step']:.3g} s)"
+           if is_adaptive(ours["integrator"]) else f"h={ours['step']:g} s")
+    detail = (f"ours {ours['integrator']} {how} RTF {ours['rtf']:.4g} "
               f"(incl. input sampling {ours['rtf_incl_inputs']:.4g}), error {ours['error_m']:.2g} m; "
               f"{mj['engine']} {mj['integrator']} h={mj['step']:g} s RTF {mj['rtf']:.4g}, error "
               f"{mj['error_m']:.2g} m; n={ours['n']}, {ours['duration']:g} s, best of "
