@@ -19,7 +19,7 @@ Frames follow robot_state_publisher's ``frame_prefix``: with the node's ``frame_
 ``<prefix>world`` (the launch file's convention; default ``world``) every frame is
 ``<prefix><link>``; a ``frame_id`` not ending in ``world`` becomes the root frame itself.
 
-May import numpy, the standard library, :mod:`cable_sim.ros.urdf`, :mod:`cable_sim.ros.recorder`
+May import numpy, numba, the standard library, :mod:`cable_sim.ros.urdf`, :mod:`cable_sim.ros.recorder`
 (definitions only, lazily) and :mod:`cable_sim.core`.
 """
 
@@ -29,6 +29,7 @@ import struct
 from collections.abc import Sequence
 from typing import Any
 
+import numba as nb
 import numpy as np
 
 from cable_sim.core.model import CableModel
@@ -41,31 +42,6 @@ TF_TOPIC = "/tf"
 TF_STATIC_TOPIC = "/tf_static"
 #: CDR encapsulation header: plain CDR, little endian.
 _CDR_LE = b"\x00\x01\x00\x00"
-
-
-def index_runs(index: np.ndarray) -> list[tuple[slice, slice]]:
-    """``index`` (1-D, integers) as runs of constant step: ``(target, source)`` slice pairs such
-    that ``a[..., target] = v[..., source]`` for every pair does ``a[..., index] = v``.
-
-    A TFMessage's transforms lie at a constant stride while their frame names have the same
-    length (``link_1`` .. ``link_9``, ``link_10`` .. ``link_99``, ...): a few strided copies
-    instead of a gather/scatter per element when many messages are written at once.
-    """
-    idx = [int(i) for i in np.ravel(index)]
-    runs: list[tuple[slice, slice]] = []
-    a = 0
-    while a < len(idx):
-        b = a + 1
-        if b < len(idx) and idx[b] > idx[a]:
-            step = idx[b] - idx[a]
-            while b + 1 < len(idx) and idx[b + 1] - idx[b] == step:
-                b += 1
-            b += 1
-        else:
-            step = 1
-        runs.append((slice(idx[a], idx[b - 1] + 1, step), slice(a, b)))
-        a = b
-    return runs
 
 
 class TfMessageEncoder:
@@ -113,8 +89,6 @@ class TfMessageEncoder:
         self._sec_at = np.asarray(stamps, dtype=np.intp)
         self._nsec_at = self._sec_at + 1
         self._value_at = np.asarray(values, dtype=np.intp)[:, None] + np.arange(7)
-        self._sec_runs = index_runs(self._sec_at)
-        self._nsec_runs = index_runs(self._nsec_at)
         if base is not None:
             self._template[4:].view("<f8")[self._value_at] = np.asarray(base, dtype=float)
 
@@ -158,19 +132,17 @@ class TfMessageEncoder:
             numbers[at] = data
         return out[: self._size].tobytes()
 
-    def messages(self, count: int) -> np.ndarray:
-        """``count`` copies of the template, one message per row (padded to whole words), for
-        writing many messages at once (:meth:`CableTf.tf_many`)."""
-        return np.tile(self._template, (count, 1))
-
-    def stamp_rows(self, rows: np.ndarray, stamps_ns: np.ndarray) -> None:
-        """Stamp every transform of message ``i`` of ``rows`` (:meth:`messages`) ``stamps_ns[i]``."""
-        words = rows[:, 4:].view("<u4")
-        sec, nsec = np.divmod(stamps_ns, 1_000_000_000)
-        for at, _ in self._sec_runs:
-            words[:, at] = sec[:, None]  # int32 sec >= 0: the same bits as uint32
-        for at, _ in self._nsec_runs:
-            words[:, at] = nsec[:, None]
+    def rows(self, count: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``count`` copies of the template, one message per row, for writing many messages at
+        once (:meth:`CableTf.tf_many`): ``(rows, numbers, words)``. Each row is padded by 4 bytes
+        to a multiple of 8, so every message body (after its 4-byte header) starts 8-aligned and
+        ``numbers``, ``words`` (float64 and uint32 views of all rows from the first body on) reach
+        row ``i``'s body at ``i * rows.shape[1] // 8`` and ``i * rows.shape[1] // 4``."""
+        width = self._template.size + 4
+        rows = np.zeros((count, width), dtype=np.uint8)
+        rows[:, : self._template.size] = self._template
+        flat = rows.reshape(-1)[4 : count * width - 4]
+        return rows, flat.view("<f8"), flat.view("<u4")
 
     def rows_bytes(self, rows: np.ndarray) -> list[bytes]:
         """The messages of ``rows`` (:meth:`messages`) as ``bytes``, one per row."""
@@ -259,8 +231,10 @@ class CableTf:
         self._w_at = self.moving.positions(slice(1, None), 6)
         self._axis_at = [(self.moving.positions(slice(1, None), 3 + j), float(a))
                          for j, a in enumerate(self._axis)]
-        self._axis_runs = [(index_runs(at), a) for at, a in self._axis_at]  # for tf_many
-        self._w_runs = index_runs(self._w_at)
+        # for tf_many: the same positions as index arrays of the compiled fill
+        self._axis_index = np.stack([at for at, _ in self._axis_at]).astype(np.intp)
+        self._w_index = np.asarray(self._w_at, dtype=np.intp)
+        self._many: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None  # tf_many's rows
         self._half = np.empty(model.n)
         self._sin = np.empty(model.n)
 
@@ -309,7 +283,10 @@ class CableTf:
         """:meth:`tf` of many joint states at once (vectorised over the messages): the bytes of
         ``[tf(p, s) for p, s in zip(joint_positions, stamps_ns)]``, what the recorder's writer
         thread calls for the /tf messages it has gathered (:meth:`TfRecording.joint_state`).
-        Keeps no scratch: callable from another thread than :meth:`tf`.
+        Keeps its own scratch, not :meth:`tf`'s: callable from another thread than :meth:`tf`, from
+        one thread at a time (the writer thread). The messages' rows are kept from call to call:
+        only the stamps and the numbers change between messages, so a row is written from the
+        template once.
 
         Parameters
         ----------
@@ -327,24 +304,50 @@ class CableTf:
         stamps = np.asarray(stamps_ns, dtype=np.int64)
         if stamps.shape != (len(pos),) or (len(stamps) and stamps.min() < 0):
             raise ValueError(f"stamps_ns: {len(pos)} stamps >= 0 needed")
-        rows = self.moving.messages(len(pos))
-        numbers = rows[:, 4:].view("<f8")
+        rows, numbers, words = self._many_rows(len(pos))
         half = np.multiply(pos[:, 1:], 0.5)
-        s = np.sin(half)
-        for runs, a in self._axis_runs:
-            v = s if a == 1.0 else a * s
-            for at, src in runs:
-                numbers[:, at] = v[:, src]
-        c = np.cos(half)
-        for at, src in self._w_runs:
-            numbers[:, at] = c[:, src]
-        numbers[:, self._heave_at] = pos[:, 0]
-        self.moving.stamp_rows(rows, stamps)
-        return self.moving.rows_bytes(rows)
+        sec, nsec = np.divmod(stamps, 1_000_000_000)
+        _fill_moving(numbers, words, rows.shape[1] // 8, rows.shape[1] // 4, np.ascontiguousarray(pos[:, 0]),
+                     np.sin(half), np.cos(half), sec, nsec, self.moving._sec_at, self.moving._nsec_at,
+                     int(self._heave_at), self._axis_index, self._axis, self._w_index)
+        return self.moving.rows_bytes(rows[: len(pos)])
+
+    def _many_rows(self, count: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """:meth:`TfMessageEncoder.rows` for at least ``count`` messages, kept for the next call
+        (grown to twice its size when too small)."""
+        kept = self._many
+        if kept is None or kept[0].shape[0] < count:
+            kept = self._many = self.moving.rows(max(count, 2 * (0 if kept is None else kept[0].shape[0])))
+        return kept
 
     def tf_static(self, stamp_ns: int) -> bytes:
         """``/tf_static`` message (CDR): the fixed joints."""
         return self.fixed.encode(stamp_ns, self._fixed_values)
+
+
+@nb.njit(cache=True, nogil=True)
+def _fill_moving(numbers: np.ndarray, words: np.ndarray, fstride: int, wstride: int, heave: np.ndarray,
+                 sin_half: np.ndarray, cos_half: np.ndarray, sec: np.ndarray, nsec: np.ndarray,
+                 sec_at: np.ndarray, nsec_at: np.ndarray, heave_at: int, axis_at: np.ndarray,
+                 axis: np.ndarray, w_at: np.ndarray) -> None:
+    """Write message ``i`` of :meth:`TfMessageEncoder.rows` (body at ``numbers[i * fstride:]``,
+    ``words[i * wstride:]``) for every i: each transform's stamp ``sec[i]``, ``nsec[i]``, the heave
+    ``heave[i]`` and the links' quaternions (x, y, z = axis * sin, w = cos of the half angles;
+    ``a * s`` as numpy forms it, signed zeros included). Compiled without the GIL: the recorder's
+    writer thread runs it while the simulation thread goes on."""
+    for i in range(heave.shape[0]):
+        fo = i * fstride
+        wo = i * wstride
+        for k in range(sec_at.shape[0]):
+            words[wo + sec_at[k]] = sec[i]  # int32 sec >= 0: the same bits as uint32
+            words[wo + nsec_at[k]] = nsec[i]
+        numbers[fo + heave_at] = heave[i]
+        for j in range(w_at.shape[0]):
+            s = sin_half[i, j]
+            for d in range(3):
+                a = axis[d]
+                numbers[fo + axis_at[d, j]] = s if a == 1.0 else a * s
+            numbers[fo + w_at[j]] = cos_half[i, j]
 
 
 class TfRecording:
@@ -393,4 +396,4 @@ class TfRecording:
 
 
 __all__ = ["TF_TYPE", "TF_TOPIC", "TF_STATIC_TOPIC", "TfMessageEncoder", "TfMessageBuffer", "CableTf",
-           "TfRecording", "frame_namer", "index_runs"]
+           "TfRecording", "frame_namer"]
