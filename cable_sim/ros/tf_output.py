@@ -369,6 +369,9 @@ class TfRecording:
         self.recorder = recorder
         self.cable = CableTf(model, frame_id)
         self._encode = self.cable.tf_many  # one bound method: the writer groups by it
+        # compile (or load from numba's cache) the batch encoder now, before real time starts,
+        # not in the writer thread at the first batch (a compile holds the GIL for seconds)
+        self.cable.tf_many([np.zeros(model.n + 1)], [0])
         self.description_topic = description_topic
         self.started = False
         from cable_sim.ros.recorder.definitions import TRANSIENT_LOCAL_QOS_YAML  # the recorder needs mcap
