@@ -24,8 +24,9 @@ import numba as nb
 import numpy as np
 
 from cable_sim.core.kernel.checks import STATUS_OK, STATUS_SINGULAR, check_packed_ws
-from cable_sim.core.kernel.forward import fd_packed_ws, fd_trig, fd_workspace
+from cable_sim.core.kernel.forward import fd_trig, fd_workspace
 from cable_sim.core.kernel.links import link_trig
+from cable_sim.integrate.compiled_steppers import _slope
 from cable_sim.integrate.step_control import (
     ERR_ROWS,
     STATUS_STEP_UNDERFLOW,
@@ -121,17 +122,6 @@ TSIT5 = _erk_tableau(TSIT5_A, TSIT5_B, TSIT5_B_HAT, 5, 4)
 
 
 @nb.njit(cache=True, inline="always")
-def _stage(arr: np.ndarray, par: np.ndarray, u: float, eta: float, ys: np.ndarray, lam: np.ndarray,
-           out: np.ndarray, ws: np.ndarray, trig_ready: bool) -> bool:
-    """``out = [qd, qdd]`` at ``ys``; False if the anchor matrix is singular."""
-    n1 = out.shape[0] // 2
-    if not fd_packed_ws(arr, par, u, eta, ys[:n1], ys[n1:], out[n1:], lam, ws, trig_ready):
-        return False
-    out[:n1] = ys[n1:]
-    return True
-
-
-@nb.njit(cache=True, inline="always")
 def _input(t: float, tin0: float, tdt: float, vals: np.ndarray) -> float:
     """The input at t from its samples: cubic interpolation, or the one value of a constant input
     (a single sample)."""
@@ -151,7 +141,7 @@ def _erk_step(arr: np.ndarray, par: np.ndarray, h: float, t: float, tin0: float,
     for i in range(ns):
         if i == 0:
             if not first_ready:
-                if not _stage(arr, par, _input(t, tin0, tdt, uin), _input(t, tin0, tdt, ein), y, lam,
+                if not _slope(arr, par, _input(t, tin0, tdt, uin), _input(t, tin0, tdt, ein), y, lam,
                               kk[0], ws, False):
                     return False
             continue
@@ -162,7 +152,7 @@ def _erk_step(arr: np.ndarray, par: np.ndarray, h: float, t: float, tin0: float,
                 for j in range(n2):
                     ys[j] += am * kk[m, j]
         ts = t + c[i] * h
-        if not _stage(arr, par, _input(ts, tin0, tdt, uin), _input(ts, tin0, tdt, ein), ys, lam, kk[i],
+        if not _slope(arr, par, _input(ts, tin0, tdt, uin), _input(ts, tin0, tdt, ein), ys, lam, kk[i],
                       ws, False):
             return False
     yn[:] = y
