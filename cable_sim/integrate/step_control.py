@@ -64,9 +64,9 @@ def err_norm(arr: np.ndarray, y: np.ndarray, yn: np.ndarray, err: np.ndarray, at
              rtol: float) -> float:
     """Scaled max norm of the embedded difference ``err`` mapped to the joints (linearised
     positions and velocities relative to the fairlead, see the module docstring)."""
-    n = arr.shape[1]
-    return err_norm_ws(arr, y, yn, err, atol, rtol, np.empty(n), np.empty(n), False,
-                       np.empty((ERR_ROWS, n)))
+    no_trig = np.empty(0)  # formed here
+    return err_norm_ws(arr, y, yn, err, atol, rtol, no_trig, no_trig, False,
+                       np.empty((ERR_ROWS, arr.shape[1])))
 
 
 #: Rows of the scratch of :func:`err_norm_ws`.

@@ -22,17 +22,17 @@ attribute ``tableau``); the compiled step, runs and the dense reference step tak
 arguments, so another four-stage W-method (:mod:`cable_sim.integrate.implicit.ros34prw`) is a
 subclass that swaps the tableau. The adaptive scheme (:class:`Ros34PW2Adaptive`) controls the
 joint-mapped max norm of the embedded difference
-(:func:`~cable_sim.integrate.implicit.ros_adaptive.err_norm`).
+(:func:`~cable_sim.integrate.step_control.err_norm`).
 
 Modules: ``ros_tableau`` (:class:`RosTableau`, :func:`ros_tableau`, ROS34PW2's coefficients
 :data:`TABLEAU`), ``ros_step`` (the compiled step and the fixed-step run), ``ros_adaptive``
-(error norm, PI controller, input interpolation and the compiled adaptive run). This module
+(the compiled adaptive run, on :mod:`cable_sim.integrate.step_control`). This module
 keeps the dense reference step, the integrator classes :class:`Ros34PW2`,
 :class:`Ros34PW2Adaptive` and re-exports the names the other modules and the tests use.
 
-Integrate layer: imports numpy, :mod:`cable_sim.core` (dynamics, kernel, model, params, system),
-:mod:`cable_sim.integrate.base`, :mod:`cable_sim.integrate.checks`,
-:mod:`cable_sim.integrate.errors` and the sibling modules ``dense``, ``operator``,
+Integrate layer: imports numpy, :mod:`cable_sim.core` (dynamics, kernel, system),
+:mod:`cable_sim.integrate.base`, :mod:`cable_sim.integrate.adaptive`,
+:mod:`cable_sim.integrate.step_control` and the sibling modules ``dense``, ``operator``,
 ``ros_tableau``, ``ros_step`` and ``ros_adaptive``.
 """
 
@@ -43,20 +43,11 @@ import numpy as np
 from cable_sim.core import dynamics
 from cable_sim.core import kernel as fast
 from cable_sim.core.system import CableSystem
-from cable_sim.integrate.adaptive import INPUT_SPACING, AdaptiveStepping
+from cable_sim.integrate.adaptive import AdaptiveStepping
 from cable_sim.integrate.base import Integrator
 from cable_sim.integrate.implicit.dense import _dense_solve, dense_operator
 from cable_sim.integrate.implicit.operator import geometric_stiffness as _geometric_stiffness
-from cable_sim.integrate.implicit.ros_adaptive import (
-    _K_EXP,
-    STATUS_STEP_UNDERFLOW,
-    _accepted_step,
-    _clip,
-    _interp,
-    _rejected_step,
-    _ros_adaptive_run,
-    err_norm,
-)
+from cable_sim.integrate.implicit.ros_adaptive import _K_EXP, _ros_adaptive_run
 from cable_sim.integrate.implicit.ros_step import _ros_fixed_run, _ros_step, _workspace
 from cable_sim.integrate.implicit.ros_tableau import (
     A_T,
@@ -73,6 +64,7 @@ from cable_sim.integrate.implicit.ros_tableau import (
     RosTableau,
     ros_tableau,
 )
+from cable_sim.integrate.step_control import err_norm
 
 # --------------------------------------------------------------------------------------------
 # Integrators
@@ -199,6 +191,5 @@ class Ros34PW2Adaptive(AdaptiveStepping, Ros34PW2):
 __all__ = ["ALPHA", "B", "B_HAT", "GAMMA", "GAMMA_IJ", "TABLEAU", "RosTableau", "Ros34PW2",
            "Ros34PW2Adaptive", "err_norm", "ros_tableau",
            # re-exported from ros_tableau, ros_step, ros_adaptive (importers of ros34 keep working)
-           "A_T", "C_T", "C_TIMES", "E_T", "M_T", "INPUT_SPACING", "STATUS_STEP_UNDERFLOW", "fast",
-           "_K_EXP", "_accepted_step", "_clip", "_dense_ros_step", "_interp", "_rejected_step",
+           "A_T", "C_T", "C_TIMES", "E_T", "M_T", "fast", "_K_EXP", "_dense_ros_step",
            "_ros_adaptive_run", "_ros_fixed_run", "_ros_step", "_workspace"]

@@ -1,7 +1,6 @@
-"""Adaptive stepping of the four-stage Rosenbrock W-methods: the compiled adaptive run
+"""Adaptive stepping of the Rosenbrock W-methods: the compiled adaptive run
 (:func:`_ros_adaptive_run`) on the shared step control of :mod:`cable_sim.integrate.step_control`
-(re-exported here under its former names ``_clip``, ``_interp``, ``err_norm``,
-``_rejected_step``, ``_accepted_step``, the last two with this pair's exponent ``_K_EXP``).
+with this pair's controller exponent :data:`_K_EXP` (embedded order 2).
 
 Integrate layer: imports numba, numpy, :mod:`cable_sim.core.kernel.checks`,
 :mod:`cable_sim.integrate.step_control` and the sibling module ``ros_step``.
@@ -15,32 +14,17 @@ import numpy as np
 from cable_sim.core.kernel.checks import STATUS_OK, check_packed
 from cable_sim.integrate.implicit.ros_step import _ros_step, _workspace
 from cable_sim.integrate.step_control import (
+    ERR_ROWS,
     STATUS_STEP_UNDERFLOW,
     accepted_step,
     clip_step,
-    err_norm,
+    err_norm_ws,
     interp_input,
     rejected_step,
 )
 
 #: 1 / (embedded order + 1): the exponent of the step-size controller (embedded order 2).
 _K_EXP = 1.0 / 3.0
-
-# the shared step control under the names this module has always had
-_clip = clip_step
-_interp = interp_input
-
-
-@nb.njit(cache=True)
-def _rejected_step(ctl: np.ndarray, en: float, hs: float) -> float:
-    """:func:`~cable_sim.integrate.step_control.rejected_step` with this pair's exponent."""
-    return rejected_step(ctl, en, hs, _K_EXP)
-
-
-@nb.njit(cache=True)
-def _accepted_step(ctl: np.ndarray, en: float, hs: float, h: float, last: bool) -> float:
-    """:func:`~cable_sim.integrate.step_control.accepted_step` with this pair's exponent."""
-    return accepted_step(ctl, en, hs, h, last, _K_EXP)
 
 
 @nb.njit(cache=True)
@@ -60,22 +44,24 @@ def _ros_adaptive_run(arr: np.ndarray, par: np.ndarray, geometric: bool, predict
     fs, sq, sv, wk, yn, err = _workspace(arr.shape[1], ns)
     us = np.empty(ns)
     es = np.empty(ns)
+    no_trig = np.empty(0)  # the error norm forms the links' cos/sin itself
+    ewk = np.empty((ERR_ROWS, arr.shape[1]))
     atol, rtol, hmax, hmin = ctl[0], ctl[1], ctl[5], ctl[6]
     h = min(ctl[7], hmax)
     t = t0
     while t < t1:
-        hs, last = _clip(t, t1, h)
+        hs, last = clip_step(t, t1, h)
         for i in range(ns):
             ts = t + ctimes[i] * hs
-            us[i] = _interp(ts, tin0, tdt, uin)
-            es[i] = _interp(ts, tin0, tdt, ein)
+            us[i] = interp_input(ts, tin0, tdt, uin)
+            es[i] = interp_input(ts, tin0, tdt, ein)
         ok = _ros_step(arr, par, geometric, predict, hs, us, es, y, yn, err, fs, sq, sv, wk, at,
                        ct, mt, et, gamma)
         info[0] += ns
-        en = err_norm(arr, y, yn, err, atol, rtol) if ok else np.inf
+        en = err_norm_ws(arr, y, yn, err, atol, rtol, no_trig, no_trig, False, ewk) if ok else np.inf
         if not np.isfinite(en) or en > 1.0:
             info[4] += 1
-            h = _rejected_step(ctl, en, hs)
+            h = rejected_step(ctl, en, hs, _K_EXP)
             if h < hmin:
                 info[3] = t
                 info[2] = h
@@ -91,11 +77,10 @@ def _ros_adaptive_run(arr: np.ndarray, par: np.ndarray, geometric: bool, predict
         y[:] = yn
         info[1] += 1
         t = t1 if last else t + hs
-        h = _accepted_step(ctl, en, hs, h, last)
+        h = accepted_step(ctl, en, hs, h, last, _K_EXP)
     ctl[7] = h
     info[3] = t
     return STATUS_OK
 
 
-__all__ = ["STATUS_STEP_UNDERFLOW", "err_norm", "_clip", "_interp", "_K_EXP", "_rejected_step",
-           "_accepted_step", "_ros_adaptive_run"]
+__all__ = ["_K_EXP", "_ros_adaptive_run"]
