@@ -184,6 +184,7 @@ def seabed_outputs(model: CableModel, q: np.ndarray, qd: np.ndarray | None = Non
     s_td = float(l[:i].sum()) + frac * l[i]
     x_td = p[i, 0] + frac * (p[i + 1, 0] - p[i, 0])
     F, S, zero = np.empty((n, 2)), np.empty((n, 2)), np.zeros(n)
-    _links_compiled()(l, zb, model.seabed_k, model.seabed_c, zero, zero, 1.0, q, qd, F, S)
+    _links_compiled()(l, zb, model.seabed_k, model.seabed_c, zero, zero, 1.0, q, qd,
+                      np.cos(q[1:]), np.sin(q[1:]), F, S)
     reaction = float(F[:, 1].sum())
     return SeabedOutputs(float(l.sum() - s_td), float(x_td), laid, reaction)

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from cable_sim.core import dynamics
-from cable_sim.core.kernel.contact import generalised_from_links_nb, seabed_links_nb
+from cable_sim.core.kernel.contact import generalised_from_links_nb, seabed_energy, seabed_links_nb
 from cable_sim.core.model import CableModel
 from cable_sim.core.params import CableParams
 
@@ -79,15 +79,19 @@ def test_compiled_contact_equals_dense(n: int) -> None:
         q, qd = _state(m, rng)
         F, S, pot, sp = dynamics.seabed_link_forces(m, q, qd)
         Fc, Sc = np.zeros((n, 2)), np.zeros((n, 2))
+        cth, sth = np.cos(q[1:]), np.sin(q[1:])
         pot_c, sp_c = seabed_links_nb(m.length, m.seabed_z, m.seabed_k, m.seabed_c, m.friction_axial,
-                                      m.friction_transverse, m.friction_speed, q, qd, Fc, Sc)
+                                      m.friction_transverse, m.friction_speed, q, qd, cth, sth, Fc, Sc)
+        # the energy alone (the energy check's pass, no forces) against the dense potential
+        pot_e = seabed_energy(m.length, m.seabed_z, m.seabed_k, q[0], cth, sth)
         Qc = np.zeros(n + 1)
         generalised_from_links_nb(m.length, q, Fc, Sc, Qc)
         Q = dynamics.seabed_force(m, q, qd)
         scale = max(np.abs(Q).max(), 1.0)
         touched += bool(np.abs(F).max() > 0)
         worst = max(worst, np.abs(Qc - Q).max() / scale, np.abs(Fc - F).max() / max(np.abs(F).max(), 1),
-                    abs(pot_c - pot) / max(abs(pot), 1.0), abs(sp_c - sp) / max(abs(sp), 1.0))
+                    abs(pot_c - pot) / max(abs(pot), 1.0), abs(sp_c - sp) / max(abs(sp), 1.0),
+                    abs(pot_e - pot) / max(abs(pot), 1.0))
     print(f"n = {n}: {touched}/20 states touch the bed, max relative difference {worst:.2e}")
     assert touched >= 10
     assert worst < 1e-9

@@ -2,8 +2,8 @@
 
 * :func:`constraint_rhs`: ``gamma - J qdd`` of the anchor's Schur complement (Baumgarte
   stabilised, as in the dense solver);
-* :func:`project_packed`, :func:`end_drift_packed`: the projection onto ``Phi(q) = 0``,
-  ``Phi_q qd = 0`` and the end's distance from the anchor;
+* :func:`project_packed_ws` (:func:`project_packed`), :func:`end_drift_packed`: the projection
+  onto ``Phi(q) = 0``, ``Phi_q qd = 0`` and the end's distance from the anchor;
 * :func:`schur_packed`, :func:`condition_2x2`, :func:`schur_condition`: ``J M^-1 J^T`` (the same
   inward/outward sweeps as the forward dynamics, with the two unit end forces) and its
   condition number, which grows without bound as the line is pulled straight.
@@ -58,19 +58,22 @@ def constraint_rhs(
 
 
 @nb.njit(cache=True, inline="always")
-def end_position(l: np.ndarray, y: np.ndarray) -> tuple[float, float]:
-    """Position of the line's end ``p_n`` from ``y = [q, ...]``."""
+def end_position(l: np.ndarray, z0: float, cth: np.ndarray, sth: np.ndarray) -> tuple[float, float]:
+    """Position of the line's end ``p_n`` [m] from the platform heave ``z0`` and the links'
+    cos/sin."""
     px = 0.0
-    pz = y[0]
+    pz = z0
     for i in range(l.shape[0]):
-        px += l[i] * np.sin(y[i + 1])
-        pz -= l[i] * np.cos(y[i + 1])
+        px += l[i] * sth[i]
+        pz -= l[i] * cth[i]
     return px, pz
 
 
 @nb.njit(cache=True, inline="always")
-def end_gram(l: np.ndarray, y: np.ndarray, free: bool, velocity: bool) -> tuple:
-    """``J J^T`` (a11, a12, a22) over the free coordinates and, with ``velocity``, ``J qd``."""
+def end_gram(l: np.ndarray, cth: np.ndarray, sth: np.ndarray, y: np.ndarray, free: bool,
+             velocity: bool) -> tuple:
+    """``J J^T`` (a11, a12, a22) over the free coordinates and, with ``velocity``, ``J qd``
+    (``J`` from the links' cos/sin)."""
     n1 = l.shape[0] + 1
     a11 = 0.0
     a12 = 0.0
@@ -78,8 +81,8 @@ def end_gram(l: np.ndarray, y: np.ndarray, free: bool, velocity: bool) -> tuple:
     vx = 0.0
     vz = y[n1] if (free and velocity) else 0.0
     for i in range(l.shape[0]):
-        jx = l[i] * np.cos(y[i + 1])
-        jz = l[i] * np.sin(y[i + 1])
+        jx = l[i] * cth[i]
+        jz = l[i] * sth[i]
         a11 += jx * jx
         a12 += jx * jz
         a22 += jz * jz
@@ -90,42 +93,64 @@ def end_gram(l: np.ndarray, y: np.ndarray, free: bool, velocity: bool) -> tuple:
 
 
 @nb.njit(cache=True, inline="always")
-def subtract_jt(l: np.ndarray, y: np.ndarray, off: int, free: bool, mx: float, mz: float) -> None:
-    """``y[off:off + n + 1] -= J^T (mx, mz)`` over the free coordinates (J at ``y[:n + 1]``)."""
+def subtract_jt(l: np.ndarray, cth: np.ndarray, sth: np.ndarray, y: np.ndarray, off: int,
+                free: bool, mx: float, mz: float) -> None:
+    """``y[off:off + n + 1] -= J^T (mx, mz)`` over the free coordinates (``J`` from the links'
+    cos/sin)."""
     if free:
         y[off] -= mz
     for i in range(l.shape[0]):
-        y[off + i + 1] -= l[i] * np.cos(y[i + 1]) * mx + l[i] * np.sin(y[i + 1]) * mz
+        y[off + i + 1] -= l[i] * cth[i] * mx + l[i] * sth[i] * mz
 
 
 @nb.njit(cache=True)
-def project_packed(arr: np.ndarray, par: np.ndarray, y: np.ndarray, tol: float) -> None:
-    """In-place projection onto Phi(q) = 0 and Phi_q qd = 0.
+def project_packed_ws(arr: np.ndarray, par: np.ndarray, y: np.ndarray, tol: float,
+                      cth: np.ndarray, sth: np.ndarray) -> float:
+    """In-place projection onto Phi(q) = 0 and Phi_q qd = 0; returns the end's remaining
+    distance from the anchor [m] and leaves the cos/sin of the projected links in ``cth``,
+    ``sth`` (length n).
 
-    The algorithm of :func:`cable_sim.core.system.project_constraint` (at most 5 Gauss-Newton steps
-    ``dq = -J^T (J J^T)^-1 Phi`` on the free coordinates, then the least-squares velocity
-    projection), O(n).
+    The algorithm of :func:`cable_sim.core.system.project_constraint` (at most 5 Gauss-Newton
+    steps ``dq = -J^T (J J^T)^-1 Phi`` on the free coordinates, then the least-squares velocity
+    projection), O(n). The links' cos/sin are formed once per configuration (one vectorised
+    pass of :func:`cable_sim.core.kernel.links.link_trig`) and serve the end position, ``J J^T``
+    and ``J^T``: two passes for a projection of one Gauss-Newton step.
     """
     l = arr[0]
     free = par[7] == 0.0
+    link_trig(y, cth, sth)
     for _ in range(5):
-        px, pz = end_position(l, y)
+        px, pz = end_position(l, y[0], cth, sth)
         fx = px - par[11]
         fz = pz - par[12]
         if np.hypot(fx, fz) <= tol * par[16]:
             break
-        a11, a12, a22, _vx, _vz = end_gram(l, y, free, False)
+        a11, a12, a22, _vx, _vz = end_gram(l, cth, sth, y, free, False)
         mx, mz = solve_2x2(a11, a12, a12, a22, fx, fz)
-        subtract_jt(l, y, 0, free, mx, mz)
-    a11, a12, a22, vx, vz = end_gram(l, y, free, True)
+        subtract_jt(l, cth, sth, y, 0, free, mx, mz)
+        link_trig(y, cth, sth)
+    a11, a12, a22, vx, vz = end_gram(l, cth, sth, y, free, True)
     mx, mz = solve_2x2(a11, a12, a12, a22, vx, vz)
-    subtract_jt(l, y, l.shape[0] + 1, free, mx, mz)
+    subtract_jt(l, cth, sth, y, l.shape[0] + 1, free, mx, mz)
+    px, pz = end_position(l, y[0], cth, sth)
+    return np.hypot(px - par[11], pz - par[12])
+
+
+@nb.njit(cache=True)
+def project_packed(arr: np.ndarray, par: np.ndarray, y: np.ndarray, tol: float) -> None:
+    """:func:`project_packed_ws` with scratch of its own."""
+    n = arr.shape[1]
+    project_packed_ws(arr, par, y, tol, np.empty(n), np.empty(n))
 
 
 @nb.njit(cache=True)
 def end_drift_packed(arr: np.ndarray, par: np.ndarray, y: np.ndarray) -> float:
     """|p_n - anchor| [m]."""
-    px, pz = end_position(arr[0], y)
+    n = arr.shape[1]
+    cth = np.empty(n)
+    sth = np.empty(n)
+    link_trig(y, cth, sth)
+    px, pz = end_position(arr[0], y[0], cth, sth)
     return np.hypot(px - par[11], pz - par[12])
 
 

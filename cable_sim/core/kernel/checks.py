@@ -10,7 +10,7 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from cable_sim.core.kernel.anchor import condition_2x2, end_drift_packed, project_packed, schur_packed
+from cable_sim.core.kernel.anchor import condition_2x2, project_packed_ws, schur_packed
 from cable_sim.core.kernel.energy import energy_terms
 from cable_sim.core.kernel.links import link_trig
 
@@ -86,9 +86,7 @@ def check_packed_ws(
     for v in y:
         if not np.isfinite(v):
             return STATUS_NONFINITE
-    status = _anchor_checks(arr, par, y, chk, info)
-    if par[10] != 0.0:
-        link_trig(y, cth, sth)  # projected
+    status = _anchor_checks(arr, par, y, chk, info, cth, sth)  # (a projection updates cth, sth)
     if status != STATUS_OK:
         return status
     status = _energy_checks(arr, par, y, chk, info, cth, sth)
@@ -133,14 +131,14 @@ def oscillation_packed(y: np.ndarray, chk: np.ndarray, info: np.ndarray) -> int:
 
 @nb.njit(cache=True, inline="always")
 def _anchor_checks(arr: np.ndarray, par: np.ndarray, y: np.ndarray, chk: np.ndarray,
-                   info: np.ndarray) -> int:
-    """Anchored end: project (finite after), drift; a nearly taut line: slack, Schur condition."""
+                   info: np.ndarray, cth: np.ndarray, sth: np.ndarray) -> int:
+    """Anchored end: project (finite after; the links' cos/sin of the projected state into
+    ``cth``, ``sth``), drift; a nearly taut line: slack, Schur condition."""
     if par[10] != 0.0:
-        project_packed(arr, par, y, chk[2])
+        drift = project_packed_ws(arr, par, y, chk[2], cth, sth)
         for v in y:
             if not np.isfinite(v):
                 return STATUS_NONFINITE
-        drift = end_drift_packed(arr, par, y)
         if drift > chk[0]:
             info[2] = drift
             return STATUS_DRIFT

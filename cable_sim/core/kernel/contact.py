@@ -84,7 +84,8 @@ def _clip_half_line(c0: float, c1: float, a: float, b: float) -> tuple[float, fl
 
 @nb.njit(cache=True, inline="always")
 def touching_interval(
-    pz: float, vpz: float, th: float, w: float, length: float, zb: float, k: float, c: float
+    pz: float, vpz: float, ct: float, st: float, w: float, length: float, zb: float, k: float,
+    c: float,
 ) -> tuple[float, float]:
     """The part [a, b] of a link (s from its upper joint) where the bed pushes on it: the
     penetration ``delta(s) = zb - z(s) > 0`` and the normal force ``k delta - c zdot > 0``
@@ -92,24 +93,24 @@ def touching_interval(
     it is where :func:`link_contact_nb` integrates the normal force, and the normal force's
     Jacobian is ``-int_a^b (k J_z^T J_z) ds`` (positions), ``-int_a^b (c J_z^T J_z) ds``
     (velocities), up to the terms the implicit operator leaves out (see
-    :mod:`cable_sim.integrate.implicit.operator`)."""
+    :mod:`cable_sim.integrate.implicit.operator`). ``ct``, ``st``: cos and sin of the link's
+    angle."""
     d0 = zb - pz
-    d1 = math.cos(th)
+    d1 = ct
     if d0 <= 0.0 and d0 + d1 * length <= 0.0:
         return 0.0, 0.0
     a, b = _clip_half_line(d0, d1, 0.0, length)
-    return _clip_half_line(k * d0 - c * vpz, k * d1 - c * w * math.sin(th), a, b)
+    return _clip_half_line(k * d0 - c * vpz, k * d1 - c * w * st, a, b)
 
 
 @nb.njit(cache=True)
 def link_contact_nb(
-    px: float, pz: float, vpx: float, vpz: float, th: float, w: float, length: float,
-    zb: float, k: float, c: float, mu_a: float, mu_t: float, vc: float,
+    px: float, pz: float, vpx: float, vpz: float, ct: float, st: float, w: float, length: float,
+    zb: float, k: float, c: float, mu_a: float, mu_t: float, vc: float, cuts: np.ndarray,
 ) -> tuple[float, float, float, float, float, float]:
     """Seabed force on one link: (fx, fz, mx, mz, potential, spring_power); see
-    :func:`cable_sim.core.seabed.link_contact` for the definitions."""
-    ct = math.cos(th)
-    st = math.sin(th)
+    :func:`cable_sim.core.seabed.link_contact` for the definitions. ``ct``, ``st``: cos and sin
+    of the link's angle; ``cuts``: scratch of 6 entries."""
     d0 = zb - pz
     d1 = ct
     if d0 <= 0.0 and d0 + d1 * length <= 0.0:
@@ -123,7 +124,6 @@ def link_contact_nb(
     f0 = k * d0 - c * z0
     f1 = k * d1 - c * z1
     friction = mu_a > 0.0 or mu_t > 0.0
-    cuts = np.empty(6)
     nc = 0
     cuts[nc] = 0.0
     nc += 1
@@ -182,13 +182,42 @@ def link_contact_nb(
     return fx, fz, mx, mz, pot, sp
 
 
+@nb.njit(cache=True, inline="always")
+def seabed_energy(l: np.ndarray, zb: float, kb: np.ndarray, z0: float, cth: np.ndarray,
+                  sth: np.ndarray) -> float:
+    """The bed's elastic energy ``sum_i int 1/2 k_i delta(s)^2 ds`` [J] over the penetrated
+    part of each link (``delta(s) = zb - z(s) > 0``), the potential of
+    :func:`seabed_links_nb` without the forces: the penetration is linear in s on a link, so
+    its square is integrated exactly by the 2-point Gauss rule on the one interval where it is
+    positive (:func:`gauss_piece` splits that interval further where the forces change form;
+    the energy is the same polynomial on every piece). ``z0`` is the platform heave, ``cth``,
+    ``sth`` the links' cos/sin."""
+    pot = 0.0
+    pz = z0
+    for i in range(l.shape[0]):
+        d0 = zb - pz
+        d1 = cth[i]
+        li = l[i]
+        if d0 > 0.0 or d0 + d1 * li > 0.0:
+            a, b = _clip_half_line(d0, d1, 0.0, li)
+            h = b - a
+            if h > 0.0:
+                e0 = d0 + d1 * (a + _G1 * h)
+                e1 = d0 + d1 * (a + _G2 * h)
+                pot += 0.25 * h * kb[i] * (e0 * e0 + e1 * e1)
+        pz -= li * d1
+    return pot
+
+
 @nb.njit(cache=True)
 def seabed_links_nb(
     l: np.ndarray, zb: float, kb: np.ndarray, cb: np.ndarray, mua: np.ndarray, mut: np.ndarray,
-    vc: float, q: np.ndarray, qd: np.ndarray, F: np.ndarray, S: np.ndarray,
+    vc: float, q: np.ndarray, qd: np.ndarray, cth: np.ndarray, sth: np.ndarray, F: np.ndarray,
+    S: np.ndarray,
 ) -> tuple[float, float]:
     """Per-link resultants ``F`` (n, 2) and first moments ``S`` (n, 2) (written in place), in one
-    O(n) pass down the line; returns (bed elastic energy, spring power)."""
+    O(n) pass down the line; returns (bed elastic energy, spring power). ``cth``, ``sth``: the
+    links' cos/sin at q (:func:`cable_sim.core.kernel.links.link_trig`)."""
     n = l.shape[0]
     px = 0.0
     pz = q[0]
@@ -196,19 +225,19 @@ def seabed_links_nb(
     vz = qd[0]
     pot = 0.0
     sp = 0.0
+    cuts = np.empty(6)
     for i in range(n):
-        th = q[i + 1]
         w = qd[i + 1]
-        fx, fz, mx, mz, e, pw = link_contact_nb(px, pz, vx, vz, th, w, l[i], zb, kb[i], cb[i],
-                                                mua[i], mut[i], vc)
+        c = cth[i]
+        s = sth[i]
+        fx, fz, mx, mz, e, pw = link_contact_nb(px, pz, vx, vz, c, s, w, l[i], zb, kb[i], cb[i],
+                                                mua[i], mut[i], vc, cuts)
         F[i, 0] = fx
         F[i, 1] = fz
         S[i, 0] = mx
         S[i, 1] = mz
         pot += e
         sp += pw
-        c = math.cos(th)
-        s = math.sin(th)
         px += l[i] * s
         pz -= l[i] * c
         vx += l[i] * c * w

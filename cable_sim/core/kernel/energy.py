@@ -1,8 +1,8 @@
 """Kinetic and potential energy of the chain in O(n) (compiled): link-centre velocities and
 spins, platform and load; heights for gravity, relative angles for the joint springs.
 
-Core layer, compiled kernel: imports numba, numpy, the kernel's ``links`` and ``packing``
-and :mod:`cable_sim.core.model`.
+Core layer, compiled kernel: imports numba, numpy, the kernel's ``contact``, ``links`` and
+``packing`` and :mod:`cable_sim.core.model`.
 """
 
 from __future__ import annotations
@@ -10,7 +10,7 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from cable_sim.core.kernel.contact import seabed_links_nb
+from cable_sim.core.kernel.contact import seabed_energy
 from cable_sim.core.kernel.links import centre_velocity, link_trig, next_pin_velocity
 from cable_sim.core.kernel.packing import pack, vec
 from cable_sim.core.model import CableModel
@@ -63,11 +63,7 @@ def energy_terms(l: np.ndarray, m: np.ndarray, mw: np.ndarray, jk: np.ndarray, m
     t_kin += 0.5 * mc * (vx * vx + vz * vz)
     v_grav += mcw * pz
     if seabed:
-        F = np.empty((n, 2))
-        S = np.empty((n, 2))
-        zero = np.zeros(n)
-        v_bed, _ = seabed_links_nb(l, zb, kb, zero, zero, zero, 1.0, q, np.zeros(q.shape[0]), F, S)
-        v_spr += v_bed
+        v_spr += seabed_energy(l, zb, kb, q[0], cth, sth)
     return t_kin, g * v_grav + v_spr
 
 

@@ -119,7 +119,7 @@ def add_seabed_loads(
     (scratch arrays (n, 2), overwritten) give ``fg += F`` and ``cpl += t . (S - l/2 F)`` (so
     that the link's own generalised force is t . S, like the per-link drag force)."""
     n = l.shape[0]
-    seabed_links_nb(l, zb, kb, cb, mua, mut, vc, q, qd, F, S)
+    seabed_links_nb(l, zb, kb, cb, mua, mut, vc, q, qd, cth, sth, F, S)
     for i in range(n):
         fgx[i] += F[i, 0]
         fgz[i] += F[i, 1]

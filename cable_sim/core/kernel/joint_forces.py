@@ -83,7 +83,7 @@ def joint_forces_packed_ws(arr: np.ndarray, par: np.ndarray, lamx: float, lamz: 
     if seabed:
         F = ws[_J_BED:_J_BED + 2].reshape(-1)[:2 * n].reshape((n, 2))
         S = ws[_J_BED + 2:_J_BED + 4].reshape(-1)[:2 * n].reshape((n, 2))
-        seabed_links_nb(l, zb, kb, cb, mua, mut, vc, q, qd, F, S)
+        seabed_links_nb(l, zb, kb, cb, mua, mut, vc, q, qd, cth, sth, F, S)
         for i in range(n):
             dfx[i] += F[i, 0]
             dfz[i] += F[i, 1]

@@ -16,6 +16,7 @@ import numpy as np
 
 from cable_sim.core.kernel.contact import touching_interval
 from cable_sim.core.kernel.links import centre_velocity, link_frame_velocity, next_pin_velocity
+from cable_sim.core.kernel.trig import sincos
 from cable_sim.integrate.implicit.op_layout import (
     _W_BETA,
     _W_CA,
@@ -114,17 +115,17 @@ def _contact_terms(arr: np.ndarray, par: np.ndarray, q: np.ndarray, qd: np.ndarr
         w = qd[i + 1]
         if horizon > 0.0:
             # in the bed now, and at the extrapolated state (k = 1, c = 0: the force is delta)
-            a, b = touching_interval(pz, 0.0, q[i + 1], 0.0, l[i], zb, 1.0, 0.0)
-            the = q[i + 1] + horizon * w
-            ap, bp = touching_interval(pze, 0.0, the, 0.0, l[i], zb, 1.0, 0.0)
-            pze -= l[i] * np.cos(the)
+            a, b = touching_interval(pz, 0.0, c, s, 0.0, l[i], zb, 1.0, 0.0)
+            ce, se = sincos(q[i + 1] + horizon * w)
+            ap, bp = touching_interval(pze, 0.0, ce, se, 0.0, l[i], zb, 1.0, 0.0)
+            pze -= l[i] * ce
             if b <= a:
                 a, b = ap, bp
             elif bp > ap:
                 a = min(a, ap)
                 b = max(b, bp)
         else:
-            a, b = touching_interval(pz, vz, q[i + 1], w, l[i], zb, kb[i], cb[i])
+            a, b = touching_interval(pz, vz, c, s, w, l[i], zb, kb[i], cb[i])
         W[_W_CA, i] = a
         W[_W_CB, i] = b
         pz -= l[i] * c
