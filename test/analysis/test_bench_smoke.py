@@ -410,3 +410,27 @@ def test_step_target_reports_the_adaptive_mean_step() -> None:
     assert "ros34pw2_adaptive rtol=0.0001" in t["detail"] and "2000 accepted steps" in t["detail"]
     assert "rtol=0.001 " not in t["detail"] and "dop853" not in t["detail"]
     assert "adaptive" not in _step_target(wp[:1], 640, 0.02)["detail"]
+
+
+def test_slope_rows_report_the_large_n_slope() -> None:
+    """The cost slope over n = 40..640 and, in its detail, over n = 160..640 alone: on costs
+    ``c n^p`` with a cheaper small n the two fits give the exponents they were built from."""
+    from cable_sim.analysis.bench.cost import LARGE_N_SLOPE_N, slopes
+    from cable_sim.analysis.bench.targets import _slope_rows
+
+    ns = [40, 80, 160, 320, 640]
+    # linear from n = 160 on, 4x cheaper than linear at n <= 80: the whole range is steeper
+    cost = {n: (n / 160.0) * (0.25 if n < 160 else 1.0) for n in ns}
+    rows = [dict(scene="s", integrator="best", n=n, cost=cost[n]) for n in ns]
+    whole = slopes(rows, ["s"])
+    large = slopes(rows, ["s"], LARGE_N_SLOPE_N)
+    assert large["s"] == pytest.approx(1.0, abs=1e-12)
+    # least squares by hand on log n, log c (x centred on log 160): sum(x y) / sum(x^2)
+    x = np.log(np.array(ns, dtype=float)) - np.log(160.0)
+    y = np.log([cost[n] for n in ns])
+    assert whole["s"] == pytest.approx(float(np.sum(x * (y - y.mean())) / np.sum(x * x)), rel=1e-12)
+    assert whole["s"] > 1.3
+    (row,) = _slope_rows(whole, large)
+    assert row["measured"] == pytest.approx(whole["s"]) and not row["met"]
+    assert "over n = 160..640 alone: 1.00" in row["detail"]
+    assert "alone" not in _slope_rows(whole)[0]["detail"]

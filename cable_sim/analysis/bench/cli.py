@@ -15,7 +15,7 @@ import time
 from pathlib import Path
 
 from .contact_cost import contact_cost, contact_plot, contact_table
-from .cost import cost_rows, slopes
+from .cost import LARGE_N_SLOPE_N, cost_rows, slopes
 from .discretisation import by_scene, discretisation_rows
 from .figures import plots
 from .moordyn_peer import PeerResult, PeerSettings, moordyn_peer, peer_plot
@@ -239,7 +239,8 @@ def main(argv=None) -> int:
           extra=tuple(sorted({r["scene"] for r in wp} - set(plan.scenes))))
     best_plot(plan.out, mj_best)
     targets = make_targets(wp, mj_best, fitted, contact=contact, peer=peer.summary,
-                           realtime_csv=Path(args.realtime_csv), recorder_csv=Path(args.recorder_csv))
+                           realtime_csv=Path(args.realtime_csv), recorder_csv=Path(args.recorder_csv),
+                           large_n_slopes=slopes(costs, plan.scenes, LARGE_N_SLOPE_N))
     write_csv(plan.out / "targets.csv", targets)
     elapsed = time.perf_counter() - plan.t_start
     summary = make_summary(argv if argv is not None else sys.argv[1:], plan.kernel, plan.why, plan.integs,

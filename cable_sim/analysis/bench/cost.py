@@ -42,12 +42,15 @@ def cost_rows(wp: list[dict], scenes, integs) -> list[dict]:
 
 #: n range of the fitted slope (issue #13: n = 40..640).
 SLOPE_N = (40, 640)
+#: The large-n part of that range, reported beside it: where the cheapest scheme no longer
+#: changes with n, the slope says whether the cost per step is linear in n.
+LARGE_N_SLOPE_N = (160, 640)
 
 
-def slopes(rows: list[dict], scenes) -> dict[str, float]:
-    """Fitted slope of the best cost vs n (n in :data:`SLOPE_N`) per scene."""
+def slopes(rows: list[dict], scenes, n_range: tuple[int, int] = SLOPE_N) -> dict[str, float]:
+    """Fitted slope of the best cost vs n (n in ``n_range``, default :data:`SLOPE_N`) per scene."""
     out = {}
-    lo, hi = SLOPE_N
+    lo, hi = n_range
     for scene in scenes:
         rr = [r for r in rows if r["scene"] == scene and r["integrator"] == "best" and lo <= r["n"] <= hi]
         out[scene] = fit_slope([r["n"] for r in rr], [r["cost"] for r in rr])

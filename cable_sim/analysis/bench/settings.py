@@ -18,7 +18,7 @@ STEPS_PER_SAMPLE = (1, 2, 4, 5, 6, 7, 8, 9, 10, 12, 13, 15, 20, 25, 40, 50, 100,
 #: Step ladder of the fixed-step schemes [s]; every step divides the 0.5 s output interval.
 STEPS = tuple(0.5 / k for k in STEPS_PER_SAMPLE)
 #: Tolerance ladder (rtol = atol) of the adaptive schemes.
-TOLS = (1e-2, 5e-3, 2e-3, 1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8)
+TOLS = (1e-2, 5e-3, 2e-3, 1e-3, 5e-4, 2e-4, 1e-4, 5e-5, 2e-5, 1e-5, 1e-6, 1e-7, 1e-8)
 #: Names :func:`make_integrator` maps to ``scipy.integrate.solve_ivp`` (adaptive).
 SCIPY_ADAPTIVE = ("dop853", "radau", "rk45")
 #: Output sample interval [s].
