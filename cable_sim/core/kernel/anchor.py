@@ -1,11 +1,9 @@
-"""The anchored end in O(n): constraint right-hand side, projection, drift and the Schur matrix.
+"""The anchored end in O(n): projection, drift and the Schur matrix.
 
-* :func:`constraint_rhs`: ``gamma - J qdd`` of the anchor's Schur complement (Baumgarte
-  stabilised, as in the dense solver);
 * :func:`project_packed_ws` (:func:`project_packed`), :func:`end_drift_packed`: the projection
   onto ``Phi(q) = 0``, ``Phi_q qd = 0`` and the end's distance from the anchor;
-* :func:`schur_packed`, :func:`condition_2x2`, :func:`schur_condition`: ``J M^-1 J^T`` (the same
-  inward/outward sweeps as the forward dynamics, with the two unit end forces) and its
+* :func:`schur_packed`, :func:`condition_2x2`, :func:`schur_condition`: ``J M^-1 J^T`` (the
+  shared inward/outward sweeps with the two unit end forces, outward-solved) and its
   condition number, which grows without bound as the line is pulled straight.
 
 Core layer, compiled kernel: imports numba, numpy, :mod:`cable_sim.core.kernel.sweeps`,
@@ -22,39 +20,6 @@ from cable_sim.core.kernel.links import link_trig
 from cable_sim.core.kernel.packing import pack_arrays
 from cable_sim.core.kernel.sweeps import inward_sweep, outward_sweep, solve_2x2
 from cable_sim.core.model import CableModel
-
-
-@nb.njit(cache=True)
-def constraint_rhs(
-    l: np.ndarray, cth: np.ndarray, sth: np.ndarray, ax: float, az: float, balpha: float,
-    bbeta: float, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray,
-) -> tuple[float, float]:
-    """``gamma - J qdd`` with ``gamma = -(dJ/dt) qd - 2 alpha J qd - beta^2 (p_n - anchor)``."""
-    n = l.shape[0]
-    jx = 0.0
-    jz = qdd[0]
-    px = 0.0
-    pz = q[0]
-    vx = 0.0
-    vz = qd[0]
-    biasx = 0.0
-    biasz = 0.0
-    for i in range(n):
-        li = l[i]
-        c = cth[i]
-        s = sth[i]
-        w = qd[i + 1]
-        jx += li * c * qdd[i + 1]
-        jz += li * s * qdd[i + 1]
-        px += li * s
-        pz -= li * c
-        vx += li * c * w
-        vz += li * s * w
-        biasx -= li * s * w * w
-        biasz += li * c * w * w
-    gx = -biasx - 2.0 * balpha * vx - bbeta * bbeta * (px - ax)
-    gz = -biasz - 2.0 * balpha * vz - bbeta * bbeta * (pz - az)
-    return gx - jx, gz - jz
 
 
 @nb.njit(cache=True, inline="always")

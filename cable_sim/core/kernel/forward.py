@@ -28,19 +28,26 @@ when heave-locked), then ``theta_dd_i = (R_i - h_i . a_{i-1}) / D_i`` and
 accelerations directly.
 
 Anchored end: the exact constraint ``p_n = anchor`` is enforced by the Schur complement. The
-articulated inertias do not depend on the applied forces, so the same sweep also propagates two
-extra right-hand sides (a unit force at ``p_n`` along x and z with zero velocity and gravity),
-giving ``X = M^-1 J^T`` and ``J X`` (the end accelerations) in O(n); then
-``lambda = (J X)^-1 (gamma - J qdd_free)`` with the dense solver's Baumgarte ``gamma``.
+articulated inertias do not depend on the applied forces, so the inward sweep also carries two
+extra right-hand sides (a unit force at ``p_n`` along x and z with zero velocity and gravity).
+Their outward solutions are not needed: the outward sweep is affine, ``a_i = P_i a_(i-1) + v_i``,
+and an end force travels inwards by ``P_i^T``, so the inward sweep sums ``J X = J M^-1 J^T`` and
+the applied forces' end acceleration ``a_end,0 = J qdd_free + (dJ/dt) qd`` as it goes
+(:func:`cable_sim.core.kernel.sweeps.inward_sweep_ws`, :func:`end_correction_terms`). Then
+``lambda = (J X)^-1 (gamma - J qdd_free)`` with the dense solver's Baumgarte ``gamma``
+(:func:`end_force`), and one outward sweep of the applied forces plus ``lambda`` at the end
+gives ``qdd`` (measured at n = 640 on the anchored paper scene: 13-15 us a call, against 19-21
+us with the two unit-force outward sweeps and the column update it replaces).
 
 Heavy load (the paper's 8e8 kg anchor emulation, or any load heavier than the line): putting
 ``m_c I`` into the recursion makes the articulated inertias m_c-sized while the physics lives in
 their differences, costing ~m_c/m_link of the precision. Instead the load's inertia ``m_c J^T J``
-is added by Woodbury with the same two unit-force solves:
-``qdd = qdd_s + X f``, ``f = -(J X + I/m_c)^-1 a_end,s`` (subscript s: the line with a massless
-load that keeps its weight). This is exact algebra and leaves every intermediate quantity of
-the line's own scale; measured against a 40-digit solve it is accurate to ~1e-15, whereas the
-dense float64 Cholesky of the ill-conditioned M is off by up to ~1e-6 at n = 60.
+is added by Woodbury with the same sums: ``qdd = qdd_s + X f``,
+``f = -(J X + I/m_c)^-1 a_end,s`` (subscript s: the line with a massless load that keeps its
+weight), ``X f`` again by the one outward sweep. This is exact algebra and leaves every
+intermediate quantity of the line's own scale; measured against a 40-digit solve it is accurate
+to ~1e-15, whereas the dense float64 Cholesky of the ill-conditioned M is off by up to ~1e-6 at
+n = 60.
 
 Round-2 terms (MODEL.md; off unless the model switches them on): the seabed contact of each link
 (:mod:`cable_sim.core.kernel.contact`) enters like its drag, as a force at the centre plus a
@@ -51,8 +58,7 @@ All kernels take plain arrays and floats (numba cannot take the dataclass) and a
 with ``cache=True``; call :func:`warmup` once before real time starts.
 
 Core layer, compiled kernel: imports numba, numpy, :mod:`cable_sim.core.kernel.sweeps`,
-:mod:`cable_sim.core.kernel.links`,
-:mod:`cable_sim.core.kernel.anchor`, :mod:`cable_sim.core.kernel.contact`,
+:mod:`cable_sim.core.kernel.links`, :mod:`cable_sim.core.kernel.contact`,
 :mod:`cable_sim.core.kernel.packing` and the core's
 ``dynamics`` (``Inputs``) and ``model``.
 """
@@ -63,7 +69,6 @@ import numba as nb
 import numpy as np
 
 from cable_sim.core.dynamics import NO_INPUT, Inputs
-from cable_sim.core.kernel.anchor import constraint_rhs
 from cable_sim.core.kernel.contact import seabed_links_nb
 from cable_sim.core.kernel.links import (
     joint_torques,
@@ -72,11 +77,12 @@ from cable_sim.core.kernel.links import (
 )
 from cable_sim.core.kernel.packing import ARR_MK, pack_arrays, vec
 from cable_sim.core.kernel.sweeps import (
+    _S_LC,
+    _S_LS,
+    _S_RD,
     MK_ROWS,
     SW_ROWS,
-    add_columns,
     inward_sweep_ws,
-    outward_sweep,
     outward_sweep_bias,
     singular_2x2,
     solve_2x2,
@@ -127,65 +133,92 @@ def add_seabed_loads(
         cpl[i] += cth[i] * (S[i, 0] - hl * F[i, 0]) + sth[i] * (S[i, 1] - hl * F[i, 1])
 
 
-@nb.njit(cache=True)
-def heavy_load_correction(mc: float, endx: np.ndarray, endz: np.ndarray, sol: np.ndarray,
-                          qdd: np.ndarray) -> None:
-    """``(M_s + m_c J^T J) qdd = Q``: ``qdd = qdd_s + X f``, ``f = -(J X + I/m_c)^-1 a_end,s``.
+@nb.njit(cache=True, inline="always")
+def end_velocity_position(lc: np.ndarray, ls: np.ndarray, q: np.ndarray,
+                          qd: np.ndarray) -> tuple[float, float, float, float]:
+    """Velocity and position of the line's end ``p_n`` from the links' ``l t = (lc, ls)``:
+    ``(vx, vz, px, pz)`` (sums without a carried dependence between links: they vectorise)."""
+    vx = 0.0
+    vz = qd[0]
+    px = 0.0
+    pz = q[0]
+    for i in range(lc.shape[0]):
+        w = qd[i + 1]
+        vx += lc[i] * w
+        vz += ls[i] * w
+        px += ls[i]
+        pz -= lc[i]
+    return vx, vz, px, pz
 
-    (f: the load's inertial force on the line end; X = M_s^-1 J^T, the unit-force solutions
-    ``sol[0]``, ``sol[1]``; a_end,s = J qdd_s + bias, the end acceleration of the applied-force
-    right-hand side, ``endx[0], endz[0]``; those of the unit forces ``endx[1:], endz[1:]``.)
+
+@nb.njit(cache=True, inline="always")
+def end_correction_terms(endm: np.ndarray, bz: np.ndarray, zdd: np.ndarray) -> tuple:
+    """``J M^-1 J^T`` (entries 00, 01, 11) and the applied forces' end acceleration
+    ``a_end,0`` (x, z) from the inward sweep's end-correction sums ``endm``
+    (:func:`cable_sim.core.kernel.sweeps.inward_sweep_ws`) plus the platform's share: a
+    platform acceleration ``zdd_k`` moves the end by ``(Psi_0^T e_j)_z zdd_k = -bz[j] zdd_k``
+    (``bz[1:3]``: the unit forces' end forces carried to the platform; ``zdd[0:3]``: the
+    platform accelerations of the three right-hand sides, zero when heave-locked)."""
+    g00 = endm[0] - bz[1] * zdd[1]
+    g01 = endm[1] - bz[1] * zdd[2]
+    g11 = endm[2] - bz[2] * zdd[2]
+    ax = endm[3] - bz[1] * zdd[0]
+    az = endm[4] - bz[2] * zdd[0]
+    return g00, g01, g11, ax, az
+
+
+@nb.njit(cache=True, inline="always")
+def end_force(
+    heavy: bool, mc: float, g00: float, g01: float, g11: float, aex: float, aez: float,
+    ax: float, az: float, balpha: float, bbeta: float, vx: float, vz: float, px: float,
+    pz: float,
+) -> tuple[bool, float, float]:
+    """The force f on the line's end that the correction adds, ``qdd = qdd_0 + M^-1 J^T f``
+    (``G = J M^-1 J^T``, ``a_end,0`` = ``(aex, aez)``):
+
+    * heavy load (Woodbury): ``(G + I/m_c) f = -a_end,0`` (f: the load's inertial force);
+    * anchored end (Schur): ``G f = gamma - J qdd_0`` with the dense solver's Baumgarte
+      ``gamma``, i.e. ``-a_end,0 - 2 alpha v_end - beta^2 (p_end - anchor)`` (``a_end,0``
+      includes the centripetal terms ``dJ/dt qd``).
+
+    Returns ``(ok, fx, fz)``; ``ok`` False if the anchored end's G is singular to working
+    precision (e.g. one link on a heave-locked platform: 1 dof, 2 constraints).
     """
-    eps = 1.0 / mc
-    f0, f1 = solve_2x2(endx[1] + eps, endx[2], endz[1], endz[2] + eps, -endx[0], -endz[0])
-    add_columns(qdd, sol[0], f0, sol[1], f1)
-
-
-@nb.njit(cache=True)
-def anchor_correction(
-    l: np.ndarray, cth: np.ndarray, sth: np.ndarray, ax: float, az: float, balpha: float,
-    bbeta: float, q: np.ndarray, qd: np.ndarray, endx: np.ndarray, endz: np.ndarray,
-    sol: np.ndarray, qdd: np.ndarray, lam: np.ndarray,
-) -> bool:
-    """Schur complement of the anchor: ``lambda = (J X)^-1 (gamma - J qdd_free)``, ``qdd += X lambda``.
-
-    ``J X = J M^-1 J^T``: column k is the end acceleration under unit force k (``endx[k + 1],
-    endz[k + 1]``; X: ``sol[0]``, ``sol[1]``). Returns False if
-    it is numerically singular (e.g. one link on a locked platform: 1 dof, 2 constraints).
-    """
-    rx, rz = constraint_rhs(l, cth, sth, ax, az, balpha, bbeta, q, qd, qdd)
-    if singular_2x2(endx[1], endx[2], endz[1], endz[2]):
-        return False
-    l0, l1 = solve_2x2(endx[1], endx[2], endz[1], endz[2], rx, rz)
-    lam[0] = l0
-    lam[1] = l1
-    add_columns(qdd, sol[0], l0, sol[1], l1)
-    return True
+    if heavy:
+        eps = 1.0 / mc
+        fx, fz = solve_2x2(g00 + eps, g01, g01, g11 + eps, -aex, -aez)
+        return True, fx, fz
+    rx = -aex - 2.0 * balpha * vx - bbeta * bbeta * (px - ax)
+    rz = -aez - 2.0 * balpha * vz - bbeta * bbeta * (pz - az)
+    if singular_2x2(g00, g01, g01, g11):
+        return False, 0.0, 0.0
+    fx, fz = solve_2x2(g00, g01, g01, g11, rx, rz)
+    return True, fx, fz
 
 
 # ---- workspace -------------------------------------------------------------------------------
 
-# rows of the forward-dynamics workspace (FD_ROWS x max(n + 1, 3)): link cos/sin, joint torques,
-# applied centre forces and couples, the sweep's 1/D, h and R (three right-hand sides), the outward
-# solutions of the two unit end forces, the right-hand sides' end forces and end accelerations,
-# four rows holding the seabed's per-link resultants and first moments ((n, 2) each), the Morison
-# drag's pin velocities (x, z), and the inward sweep's scratch
+# rows of the forward-dynamics workspace (FD_ROWS x max(n + 1, 5)): link cos/sin, joint torques,
+# applied centre forces and couples, the sweep's 1/D, h and R (three right-hand sides), the
+# right-hand sides' end forces, the end-correction sums (5 entries) and the three platform
+# accelerations, four rows holding the seabed's per-link resultants and first moments ((n, 2)
+# each), the Morison drag's pin velocities (x, z), and the inward sweep's scratch
 # (:data:`cable_sim.core.kernel.sweeps.SW_ROWS` rows)
-(_F_COS, _F_SIN, _F_TAU, _F_FGX, _F_FGZ, _F_CPL, _F_DD, _F_HX, _F_HZ, _F_RR, _F_SOL, _F_BX,
- _F_BZ, _F_ENDX, _F_ENDZ, _F_BED, _F_PVX, _F_PVZ, _F_SW) = (0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 12, 14,
-                                                         15, 16, 17, 18, 22, 23, 24)
+(_F_COS, _F_SIN, _F_TAU, _F_FGX, _F_FGZ, _F_CPL, _F_DD, _F_HX, _F_HZ, _F_RR, _F_BX, _F_BZ,
+ _F_ENDM, _F_ZDD, _F_BED, _F_PVX, _F_PVZ, _F_SW) = (0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 12, 13, 14, 15,
+                                                   16, 20, 21, 22)
 #: Rows of the forward-dynamics workspace (:func:`fd_workspace`).
 FD_ROWS = _F_SW + SW_ROWS
 
 
 @nb.njit(cache=True)
 def fd_workspace(n: int) -> np.ndarray:
-    """Scratch of :func:`fd_packed_ws` for n links, shape ``(FD_ROWS, max(n + 1, 3))``.
+    """Scratch of :func:`fd_packed_ws` for n links, shape ``(FD_ROWS, max(n + 1, 5))``.
 
     It carries nothing from one call to the next (every entry read is written first in the
     same call), so one workspace serves any number of calls, states and models of n links.
     """
-    return np.empty((FD_ROWS, max(n + 1, 3)))
+    return np.empty((FD_ROWS, max(n + 1, 5)))
 
 
 @nb.njit(cache=True, inline="always")
@@ -207,9 +240,9 @@ def fd_packed_ws(arr: np.ndarray, par: np.ndarray, u: float, eta: float, q: np.n
     :func:`cable_sim.core.kernel.links.link_trig` into :func:`fd_trig`) and are not recomputed.
 
     Steps: link trig, applied forces, the inward sweep (with the two unit end-force right-hand
-    sides when anchored or for a heavy load), the outward sweep per right-hand side, then the
-    heavy-load (Woodbury) or anchor (Schur) correction. Returns False if the anchored end's 2x2
-    constraint matrix is singular to working precision.
+    sides and the end-correction sums when anchored or for a heavy load), the end force of the
+    heavy-load (Woodbury) or anchor (Schur) correction, then one outward sweep. Returns False if
+    the anchored end's 2x2 constraint matrix is singular to working precision.
 
     The model's rows and scalars are unpacked here, not passed one by one: a compiled call
     costs per array argument (~0.4 us a call for the 17 arrays).
@@ -251,34 +284,45 @@ def fd_packed_ws(arr: np.ndarray, par: np.ndarray, u: float, eta: float, q: np.n
     bx[:] = 0.0
     bz[:] = 0.0
     bz[0] = mcw * g
-    if nrhs == 3:
-        bx[1] = -1.0  # unit external force +x on p_n: the link exerts -F on "the end"
-        bz[2] = -1.0
     sw = ws[_F_SW:_F_SW + SW_ROWS]
-    azz = inward_sweep_ws(l, arr[ARR_MK:ARR_MK + MK_ROWS], me, cth, sth, qd, tau, cpl, fgx, fgz, True,
-                          0.0 if heavy else mc, bx, bz, dd, hx, hz, rr, sw, nrhs > 1)
+    mk = arr[ARR_MK:ARR_MK + MK_ROWS]
     q0 = u - hk * q[0] - hc * qd[0]
     if wave:
         q0 += hk * eta
-    endx = ws[_F_ENDX, :nrhs]
-    endz = ws[_F_ENDZ, :nrhs]
-    # no joint armature here (the beta argument, dd, is not read); velocity terms in rhs 0 only;
-    # rhs 0 straight into qdd, the unit end forces into the rows of sol (sol[k - 1]: rhs k)
-    zdd = 0.0 if locked else (q0 - bz[0]) / (mp + azz)
-    endx[0], endz[0] = outward_sweep_bias(sw, n, zdd, qdd)
-    sol = ws[_F_SOL:_F_SOL + 2]
-    for k in range(1, nrhs):
-        zdd = 0.0 if locked else (0.0 - bz[k]) / (mp + azz)
-        endx[k], endz[k] = outward_sweep(l, cth, sth, qd, False, dd, False, rr[k], hx, hz, dd, zdd,
-                                         sol[k - 1])
     lam[0] = 0.0
     lam[1] = 0.0
-    if heavy:
-        heavy_load_correction(mc, endx, endz, sol, qdd)
+    if nrhs == 1:
+        azz = inward_sweep_ws(l, mk, me, cth, sth, qd, tau, cpl, fgx, fgz, True, mc, bx, bz, dd,
+                              hx, hz, rr, sw, False)
+        outward_sweep_bias(sw, n, 0.0 if locked else (q0 - bz[0]) / (mp + azz), qdd)
         return True
-    if not constrained:
-        return True
-    return anchor_correction(l, cth, sth, ax, az, balpha, bbeta, q, qd, endx, endz, sol, qdd, lam)
+    # the end correction: a unit external force +x, +z on p_n (the link exerts -F on "the end")
+    # rides along the inward sweep, which also sums what J M^-1 J^T and the applied forces' end
+    # acceleration need; then one outward sweep of the applied forces plus the end force f
+    bx[1] = -1.0
+    bz[2] = -1.0
+    endm = ws[_F_ENDM, :5]
+    azz = inward_sweep_ws(l, mk, me, cth, sth, qd, tau, cpl, fgx, fgz, True,
+                          0.0 if heavy else mc, bx, bz, dd, hx, hz, rr, sw, True, endm)
+    zdd = ws[_F_ZDD, :3]
+    for k in range(3):
+        zdd[k] = 0.0 if locked else ((q0 if k == 0 else 0.0) - bz[k]) / (mp + azz)
+    g00, g01, g11, aex, aez = end_correction_terms(endm, bz, zdd)
+    vx, vz, px, pz = end_velocity_position(sw[_S_LC, :n], sw[_S_LS, :n], q, qd)
+    ok, fx, fz = end_force(heavy, mc, g00, g01, g11, aex, aez, ax, az, balpha, bbeta, vx, vz,
+                           px, pz)
+    if not ok:
+        return False
+    rd = sw[_S_RD, :n]
+    r1 = rr[1]
+    r2 = rr[2]
+    for i in range(n):
+        rd[i] += (fx * r1[i] + fz * r2[i]) * dd[i]
+    outward_sweep_bias(sw, n, zdd[0] + fx * zdd[1] + fz * zdd[2], qdd)
+    if constrained:
+        lam[0] = fx
+        lam[1] = fz
+    return True
 
 
 @nb.njit(cache=True)

@@ -67,15 +67,18 @@ def articulated_parts(
 
 @nb.njit(cache=True, inline="always")
 def unit_force_step(
-    bx: float, bz: float, lc: float, ls: float, h_x: float, h_z: float, inv_d: float
+    bx: float, bz: float, lc: float, ls: float, h_x: float, h_z: float, inv_d: float,
+    flush: bool,
 ) -> tuple[float, float, float]:
     """One link of a unit end-force right-hand side (no velocity, no gravity), flushed at TINY
-    (``lc, ls = l t``; ``inv_d = 1 / D_i``)."""
+    when ``flush`` (``lc, ls = l t``; ``inv_d = 1 / D_i``). The sweep flushes every 16th link:
+    the force decays by at least 1/2 per link along a slack stretch, so it stays far from the
+    subnormal range between two tests, which cost ~10 % of the sweep when made at every link."""
     rk = -(lc * bx + ls * bz)
     rd = rk * inv_d
     bx += h_x * rd
     bz += h_z * rd
-    if abs(bx) + abs(bz) < TINY:
+    if flush and abs(bx) + abs(bz) < TINY:
         bx = 0.0
         bz = 0.0
     return rk, bx, bz
@@ -160,6 +163,7 @@ def inward_sweep_ws(
     qd: np.ndarray, tau: np.ndarray, cpl: np.ndarray, fgx: np.ndarray, fgz: np.ndarray,
     bias: bool, mload: float, bx: np.ndarray, bz: np.ndarray, idd: np.ndarray, hx: np.ndarray,
     hz: np.ndarray, rr: np.ndarray, sc: np.ndarray, full: bool = True,
+    endm: np.ndarray | None = None,
 ) -> float:
     """:func:`inward_sweep` with the per-link model constants ``mk`` (:data:`MK_ROWS` rows of
     l, mn, me: :func:`fill_link_constants`, or the packed model's) on the caller's scratch
@@ -174,6 +178,18 @@ def inward_sweep_ws(
     (:func:`articulated_parts`) so that its turn into the link's frame (linear in A) overlaps
     the division ``ixp = 1/xp``; 1/D is ``ixp / l^2``; the end forces of the first three
     right-hand sides ride in registers.
+
+    With ``endm`` (5 entries; with ``bias`` and the two unit end forces, ``nrhs >= 3``) it also
+    sums, off the recursion's chain, what the end correction needs without an outward sweep of
+    the unit forces: ``endm[0:3] = sum_i u_x u_x / D, u_x u_z / D, u_z u_z / D`` and
+    ``endm[3:5] = sum_i -B_k . v_i`` (k = x, z). Here ``u_k,i = R_i`` of unit force k (``l t_i .
+    Psi_i^T e_k``) and ``B_k,i = -Psi_i^T e_k`` its end force below link i, where ``Psi_i =
+    P_n ... P_(i+1)`` and ``P_i = I - (l t_i) (h_i / D_i)^T`` is the outward sweep's map
+    ``a_i = P_i a_(i-1) + v_i`` (:func:`outward_sweep_bias`): the inward propagation of an end
+    force is ``P_i^T``, so ``e_k . a_n = sum_i (Psi_i^T e_k) . v_i + (Psi_0^T e_k) . a_0``.
+    Hence ``J M^-1 J^T`` (without the platform's share) is the first sum and the applied
+    forces' end acceleration (without the platform's share) the second; see
+    :func:`end_correction_terms`.
     """
     n = l.shape[0]
     nrhs = bx.shape[0]
@@ -208,6 +224,11 @@ def inward_sweep_ws(
     b1z = bz[1] if nrhs > 1 else 0.0
     b2x = bx[2] if nrhs > 2 else 0.0
     b2z = bz[2] if nrhs > 2 else 0.0
+    g00 = 0.0
+    g01 = 0.0
+    g11 = 0.0
+    e0 = 0.0
+    e1 = 0.0
     for i in range(n - 1, -1, -1):
         if i == n - 1:
             # the load's A = mload I is isotropic (any frame)
@@ -253,13 +274,20 @@ def inward_sweep_ws(
             wls = wlss[i]
             b0x = ((b0x + fx0[i]) - (wlc * y + wls * z)) + h_x * rd
             b0z = ((b0z + fz0[i]) - (wls * y - wlc * z)) + h_z * rd
+            if endm is not None:
+                # end-correction sums (see the docstring), with the end forces below this link
+                vx = lc * rd - wls
+                vz = ls * rd + wlc
+                e0 -= b1x * vx + b1z * vz
+                e1 -= b2x * vx + b2z * vz
         if nrhs > 1:
-            rr[1, i], b1x, b1z = unit_force_step(b1x, b1z, lc, ls, h_x, h_z, inv_d)
+            flush = i & 15 == 0
+            rr[1, i], b1x, b1z = unit_force_step(b1x, b1z, lc, ls, h_x, h_z, inv_d, flush)
             if nrhs > 2:
-                rr[2, i], b2x, b2z = unit_force_step(b2x, b2z, lc, ls, h_x, h_z, inv_d)
+                rr[2, i], b2x, b2z = unit_force_step(b2x, b2z, lc, ls, h_x, h_z, inv_d, flush)
                 for k in range(3, nrhs):
                     rr[k, i], bx[k], bz[k] = unit_force_step(bx[k], bz[k], lc, ls, h_x, h_z,
-                                                             inv_d)
+                                                             inv_d, flush)
         ixp, kp, kr, ku, cu = articulated_parts(m3[i], m4[i], m6[i], me[i], x, y, z, xp)
         # along a straight stretch (relative angle 0) the cross term decays geometrically
         # (factor < 1/2 per link): flushed at TINY of the inertia, long before it turns
@@ -276,6 +304,19 @@ def inward_sweep_ws(
     if nrhs > 2:
         bx[2] = b2x
         bz[2] = b2z
+    if endm is not None:
+        # the u u^T / D sums after the recursion, in a loop that vectorises
+        for i in range(n):
+            u0 = rr[1, i]
+            u1 = rr[2, i]
+            g00 += (u0 * u0) * idd[i]
+            g01 += (u0 * u1) * idd[i]
+            g11 += (u1 * u1) * idd[i]
+        endm[0] = g00
+        endm[1] = g01
+        endm[2] = g11
+        endm[3] = e0
+        endm[4] = e1
     if n == 0:
         return mload
     return to_world(kp * ixp, kr * ixp, cu + ku * ixp, cth[0], sth[0])[2]
