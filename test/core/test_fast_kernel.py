@@ -20,6 +20,7 @@ import mpmath
 import numpy as np
 import pytest
 import sympy as sp
+from kernel_models import make_model
 
 from cable_sim.core import dynamics as dense
 from cable_sim.core import kernel as fast
@@ -31,26 +32,6 @@ RTOL = 1e-9
 NS = (1, 2, 5, 17, 60)
 ENDS = ("free", "anchored", "paper_anchor")
 DRAGS = ("none", "paper", "morison")
-
-
-def make_model(n: int, end: str, drag: str, locked: bool) -> CableModel:
-    """A model with non-uniform links, pin spring/damper, buoyant load and a current."""
-    rng = np.random.default_rng(1000 + n)
-    p = CableParams(
-        n_links=n,
-        link_lengths=tuple(240.0 / n * rng.uniform(0.7, 1.3, n)),
-        diameter=tuple(rng.uniform(0.008, 0.012, n)),
-        pin_stiffness=40.0,
-        pin_damping=2.0,
-        drag_model=drag,
-        end_condition=end,
-        heave_locked=locked,
-        current_speed=0.6,
-        load_volume=0.01,
-        anchor_x=120.0,
-        anchor_z=-190.0,
-    )
-    return CableModel.from_params(p)
 
 
 def random_state(model: CableModel, seed: int) -> tuple[np.ndarray, np.ndarray, Inputs]:

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from kernel_models import make_model
 from scipy.linalg import cho_factor, cho_solve
 
 from cable_sim.core import dynamics as dense
@@ -28,7 +29,6 @@ from cable_sim.core.kernel.forward import (
 )
 from cable_sim.core.kernel.packing import pack_arrays
 from cable_sim.core.model import CableModel
-from cable_sim.core.params import CableParams
 
 #: Norm-wise relative agreement required (measured ~1e-14 on these cases; the margin is for
 #: the round-off of other CPUs, the quantities are well conditioned at these states).
@@ -36,23 +36,10 @@ RTOL = 1e-9
 
 
 def anchored_model(n: int, locked: bool, drag: str, added_mass: bool) -> CableModel:
-    rng = np.random.default_rng(77 + n)
-    p = CableParams(
-        n_links=n,
-        link_lengths=tuple(240.0 / n * rng.uniform(0.7, 1.3, n)),
-        diameter=tuple(rng.uniform(0.008, 0.012, n)),
-        pin_stiffness=40.0,
-        pin_damping=2.0,
-        drag_model=drag,
-        end_condition="anchored",
-        heave_locked=locked,
-        current_speed=0.4,
-        load_volume=0.01,
-        anchor_x=120.0,
-        anchor_z=-190.0,
-        added_mass=added_mass,
-    )
-    return CableModel.from_params(p)
+    """The kernel tests' anchored line (:func:`kernel_models.make_model`), with or without the
+    Morison added mass."""
+    model = make_model(n, "anchored", drag, locked)
+    return CableModel.from_params(model.params.replace(added_mass=added_mass))
 
 
 def dense_terms(model: CableModel, q: np.ndarray, qd: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
