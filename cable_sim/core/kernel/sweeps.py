@@ -71,9 +71,10 @@ def unit_force_step(
     flush: bool,
 ) -> tuple[float, float, float]:
     """One link of a unit end-force right-hand side (no velocity, no gravity), flushed at TINY
-    when ``flush`` (``lc, ls = l t``; ``inv_d = 1 / D_i``). The sweep flushes every 16th link:
-    the force decays by at least 1/2 per link along a slack stretch, so it stays far from the
-    subnormal range between two tests, which cost ~10 % of the sweep when made at every link."""
+    when ``flush`` (``lc, ls = l t``; ``inv_d = 1 / D_i``). The sweep tests every 16th link
+    (the anchored inward sweep at n = 640: 8.7 us against 10.5 us with a test per link): a
+    force above TINY reaches the subnormal range (~2e-308) before the next test only if it
+    shrinks by more than ~1e-10 per link. Subnormals would cost speed only, not accuracy."""
     rk = -(lc * bx + ls * bz)
     rd = rk * inv_d
     bx += h_x * rd
