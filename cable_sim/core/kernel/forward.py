@@ -58,7 +58,8 @@ All kernels take plain arrays and floats (numba cannot take the dataclass) and a
 with ``cache=True``; call :func:`warmup` once before real time starts.
 
 Core layer, compiled kernel: imports numba, numpy, :mod:`cable_sim.core.kernel.sweeps`,
-:mod:`cable_sim.core.kernel.links`, :mod:`cable_sim.core.kernel.contact`,
+:mod:`cable_sim.core.kernel.links`, :mod:`cable_sim.core.kernel.anchor` (``end_position``),
+:mod:`cable_sim.core.kernel.contact`,
 :mod:`cable_sim.core.kernel.packing` and the core's
 ``dynamics`` (``Inputs``) and ``model``.
 """
@@ -69,6 +70,7 @@ import numba as nb
 import numpy as np
 
 from cable_sim.core.dynamics import NO_INPUT, Inputs
+from cable_sim.core.kernel.anchor import end_position
 from cable_sim.core.kernel.contact import seabed_links_nb
 from cable_sim.core.kernel.links import (
     joint_torques,
@@ -134,21 +136,15 @@ def add_seabed_loads(
 
 
 @nb.njit(cache=True, inline="always")
-def end_velocity_position(lc: np.ndarray, ls: np.ndarray, q: np.ndarray,
-                          qd: np.ndarray) -> tuple[float, float, float, float]:
-    """Velocity and position of the line's end ``p_n`` from the links' ``l t = (lc, ls)``:
-    ``(vx, vz, px, pz)`` (sums without a carried dependence between links: they vectorise)."""
+def end_velocity(lc: np.ndarray, ls: np.ndarray, qd: np.ndarray) -> tuple[float, float]:
+    """Velocity ``J qd`` of the line's end ``p_n`` from the links' ``l t = (lc, ls)`` (the
+    inward sweep's scratch rows; sums without a carried dependence between links)."""
     vx = 0.0
     vz = qd[0]
-    px = 0.0
-    pz = q[0]
     for i in range(lc.shape[0]):
-        w = qd[i + 1]
-        vx += lc[i] * w
-        vz += ls[i] * w
-        px += ls[i]
-        pz -= lc[i]
-    return vx, vz, px, pz
+        vx += lc[i] * qd[i + 1]
+        vz += ls[i] * qd[i + 1]
+    return vx, vz
 
 
 @nb.njit(cache=True, inline="always")
@@ -308,7 +304,10 @@ def fd_packed_ws(arr: np.ndarray, par: np.ndarray, u: float, eta: float, q: np.n
     for k in range(3):
         zdd[k] = 0.0 if locked else ((q0 if k == 0 else 0.0) - bz[k]) / (mp + azz)
     g00, g01, g11, aex, aez = end_correction_terms(endm, bz, zdd)
-    vx, vz, px, pz = end_velocity_position(sw[_S_LC, :n], sw[_S_LS, :n], q, qd)
+    vx = vz = px = pz = 0.0  # the Baumgarte terms: anchored end only
+    if constrained:
+        vx, vz = end_velocity(sw[_S_LC, :n], sw[_S_LS, :n], qd)
+        px, pz = end_position(l, q[0], cth, sth)
     ok, fx, fz = end_force(heavy, mc, g00, g01, g11, aex, aez, ax, az, balpha, bbeta, vx, vz,
                            px, pz)
     if not ok:
