@@ -1,7 +1,9 @@
 """Pacing of the simulation in the three clock modes.
 
 - ``realtime``: a 50 Hz (or faster) timer advances the simulation to the wall clock, within a
-  budget of 0.8 tick; falling behind counts an overrun, more than 1 s behind drops the backlog;
+  budget of 0.8 tick; falling behind counts an overrun, more than 1 s behind drops the backlog.
+  Real time starts at the first tick: the node's start-up after its clock started (first
+  messages, timers, the executor's first spin) is not a backlog to catch up;
 - ``fast``: a 0.5 ms timer steps for up to 10 ms per tick and publishes ``/clock``;
 - ``lockstep``: once a controller is connected both ways, joint_states(t0) is published and each
   ``heave_force`` message advances one control period, then ``/clock`` and ``joint_states``.
@@ -51,7 +53,8 @@ class RealtimePacing:
     def __init__(self, node: Node) -> None:
         self.node = node
         self.tick_period = min(0.02, 1.0 / node.get_parameter("joint_state_rate").value)
-        self.sim_wall_base = (node.clock.start_wall, 0.0)  # (wall, sim time) pair that paces real time
+        #: (wall, sim time) pair that paces real time; set at the first tick (see the module docstring)
+        self.sim_wall_base: tuple[float, float] | None = None
         node.create_timer(self.tick_period, self.tick)
 
     def rebase(self, now: float) -> None:
@@ -65,6 +68,8 @@ class RealtimePacing:
         node, sim, run = self.node, self.node.sim, self.node.run
         now = time.monotonic()
         node.clock.tick(now, sim.t)
+        if self.sim_wall_base is None:
+            self.rebase(now)
         if not run.running():
             return
         wall0, sim0 = self.sim_wall_base
