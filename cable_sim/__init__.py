@@ -7,14 +7,22 @@ Importing the package points numba's on-disk cache at a folder keyed by this cop
 the text of every compiled module: numba checks only the file a function is defined in, so after
 an edit of a shared sweep a function inlining it from another file would otherwise keep running
 the old code from the cache. ``NUMBA_CACHE_DIR`` set by the user wins (numba reads it when it is
-first imported, which is after this).
+first imported, which is after this). Each import marks its folder as used; folders of other
+versions unused for :data:`STALE_CACHE_DAYS` days are removed then (one per code change would
+otherwise pile up, 5-10 MB each).
 """
 
 from __future__ import annotations
 
 import hashlib
 import os
+import re
+import shutil
+import time
 from pathlib import Path
+
+#: Days after which the numba cache folder of another version of the package is removed.
+STALE_CACHE_DAYS = 14.0
 
 
 def _numba_cache_dir() -> Path:
@@ -31,9 +39,38 @@ def _numba_cache_dir() -> Path:
     return base / "cable_sim" / "numba" / digest.hexdigest()[:16]
 
 
+def _prune_stale_caches(chosen: Path, max_age_s: float, now: float | None = None) -> list[Path]:
+    """Mark ``chosen`` as used (its modification time) and remove the sibling cache folders
+    (named like :func:`_numba_cache_dir`'s) unused for longer than ``max_age_s`` seconds.
+
+    Returns the folders removed. Errors (a folder removed by another process, permissions) are
+    ignored: the cache only saves compile time, and numba recreates a missing folder.
+    """
+    now = time.time() if now is None else now
+    removed: list[Path] = []
+    try:
+        chosen.mkdir(parents=True, exist_ok=True)
+        os.utime(chosen, (now, now))
+        siblings = list(chosen.parent.iterdir())
+    except OSError:
+        return removed
+    for other in siblings:
+        if other == chosen or not re.fullmatch(r"[0-9a-f]{16}", other.name):
+            continue
+        try:
+            if other.is_dir() and now - other.stat().st_mtime > max_age_s:
+                shutil.rmtree(other)
+                removed.append(other)
+        except OSError:
+            continue
+    return removed
+
+
 #: Marks a NUMBA_CACHE_DIR this package chose (a child process running another copy of the
 #: package, e.g. a test's installed node, chooses its own instead of inheriting it).
 _AUTO = "CABLE_SIM_NUMBA_CACHE_AUTO"
 
 if not os.environ.get("NUMBA_CACHE_DIR") or os.environ.get(_AUTO) == os.environ["NUMBA_CACHE_DIR"]:
-    os.environ["NUMBA_CACHE_DIR"] = os.environ[_AUTO] = str(_numba_cache_dir())
+    _chosen = _numba_cache_dir()
+    os.environ["NUMBA_CACHE_DIR"] = os.environ[_AUTO] = str(_chosen)
+    _prune_stale_caches(_chosen, STALE_CACHE_DAYS * 86400.0)
