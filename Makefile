@@ -15,7 +15,7 @@ RUN_PKGS := numpy==2.4.6 scipy==1.17.1 pyyaml==6.0.3 mcap==1.6.0 mcap-ros2-suppo
             numba==0.68.1 matplotlib==3.11.2 \
             dask==2026.8.0 distributed==2026.8.0 pyarrow==26.0.1 tqdm==4.70.1 \
             foxglove-sdk==0.30.3
-TEST_PKGS := pytest==9.2.0 pytest-timeout==2.4.0 sympy==1.14.0 rosbags==0.11.9 ruff==0.17.6 \
+TEST_PKGS := pytest==9.2.0 pytest-timeout==2.4.0 pytest-xdist==3.8.0 execnet==2.1.2 sympy==1.14.0 rosbags==0.11.9 ruff==0.17.6 \
              rainflow==3.2.0 yourdfpy==0.0.60 websockets==17.4 protobuf==7.36.2 \
              moorpy==1.3.0
 
@@ -46,9 +46,15 @@ $(PKG_STAMP): $(DEPS_STAMP) $(SOURCES)
 run: $(PKG_STAMP)
 	$(VENV)/bin/cable_sim_node --ros-args --params-file config/$(SCENE).yaml $(ARGS)
 
+# The suite in two parts: all but the wall-clock tests on TEST_WORKERS processes (one per core of
+# the 2-core CI machine; --dist loadscope keeps a module's tests, and so its module-scoped node or
+# bench fixture, on one worker), then the tests marked `realtime` alone.
+TEST_WORKERS ?= 2
+
 test: $(PKG_STAMP)
 	$(VENV)/bin/ruff check cable_sim test launch
-	$(PY) -m pytest -q test
+	$(PY) -m pytest -q -n $(TEST_WORKERS) --dist loadscope -m "not realtime" test
+	$(PY) -m pytest -q -m realtime test
 
 lint: $(PKG_STAMP)
 	$(VENV)/bin/ruff check cable_sim test launch

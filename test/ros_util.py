@@ -46,8 +46,13 @@ def isolate_ros() -> int:
 
     Every module of one pytest process gets its own domain; pass it to :func:`start_node` (the
     environment variable only holds the last module's choice once all modules are collected).
+    Under pytest-xdist, worker k of N draws only domains d with d % N == k, so two workers never
+    share one (each worker collects every module: 91 domains suffice for up to 4 workers).
     """
-    domain = random.choice([d for d in range(10, 101) if d not in _USED])
+    worker = os.environ.get("PYTEST_XDIST_WORKER", "")  # "gw0", "gw1", ... (unset: no xdist)
+    count = int(os.environ.get("PYTEST_XDIST_WORKER_COUNT", "1"))
+    k = int(worker[2:]) if worker.startswith("gw") else 0
+    domain = random.choice([d for d in range(10, 101) if d % count == k % count and d not in _USED])
     _USED.add(domain)
     os.environ["ROS_DOMAIN_ID"] = str(domain)
     os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"

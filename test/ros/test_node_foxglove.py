@@ -19,6 +19,9 @@ pytest.importorskip("foxglove")
 pytest.importorskip("websockets")
 from test_foxglove_view import Client, free_port, protobuf_class  # noqa: E402
 
+# wall-clock rates and real-time factors: run apart from the parallel part of `make test`
+pytestmark = pytest.mark.realtime
+
 DOMAIN = isolate_ros()
 SCENE_TOPIC, TENSION_TOPIC, DIAG_TOPIC = "/cable_sim/scene", "/cable_sim/tension", "/cable_sim/diagnostics"
 

@@ -21,6 +21,9 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64, Float64MultiArray
 from visualization_msgs.msg import MarkerArray
 
+# wall-clock rates and real-time factors: run apart from the parallel part of `make test`
+pytestmark = pytest.mark.realtime
+
 DOMAIN = isolate_ros()
 RATE = 20.0  # Hz, joint_state_rate override
 FORCE = 3.0e5  # N

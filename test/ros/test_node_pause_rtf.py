@@ -14,11 +14,15 @@ import signal
 import subprocess
 import time
 
+import pytest
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
 from rclpy.executors import SingleThreadedExecutor
 from ros_util import diag_values, init_context, isolate_ros, kill_and_reap, spin_until, start_node
 from std_srvs.srv import SetBool
+
+# wall-clock rates and real-time factors: run apart from the parallel part of `make test`
+pytestmark = pytest.mark.realtime
 
 DOMAIN = isolate_ros()
 PAUSE_S = 6.0

@@ -7,11 +7,15 @@ from __future__ import annotations
 import signal
 import time
 
+import pytest
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
 from rclpy.executors import SingleThreadedExecutor
 from ros_util import diag_values, init_context, isolate_ros, spin_until, start_node, stop
 from sensor_msgs.msg import JointState
+
+# wall-clock rates and real-time factors: run apart from the parallel part of `make test`
+pytestmark = pytest.mark.realtime
 
 DOMAIN = isolate_ros()
 
