@@ -52,7 +52,11 @@ def isolate_ros() -> int:
     worker = os.environ.get("PYTEST_XDIST_WORKER", "")  # "gw0", "gw1", ... (unset: no xdist)
     count = int(os.environ.get("PYTEST_XDIST_WORKER_COUNT", "1"))
     k = int(worker[2:]) if worker.startswith("gw") else 0
-    domain = random.choice([d for d in range(10, 101) if d % count == k % count and d not in _USED])
+    free = [d for d in range(10, 101) if d % count == k % count and d not in _USED]
+    if not free:
+        raise RuntimeError(f"no free ROS domain for worker {worker or 'main'} of {count}: "
+                           "run the suite on at most 4 pytest-xdist workers")
+    domain = random.choice(free)
     _USED.add(domain)
     os.environ["ROS_DOMAIN_ID"] = str(domain)
     os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
