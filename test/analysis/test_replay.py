@@ -10,7 +10,15 @@ import dataclasses
 import numpy as np
 import pytest
 
-from cable_sim.analysis.replay import compare, export_csv, load_run, main, record_headless, resimulate
+from cable_sim.analysis.replay import (
+    compare,
+    export_csv,
+    load_run,
+    main,
+    record_headless,
+    resimulate,
+    summary,
+)
 from cable_sim.core import dynamics
 from cable_sim.scene.scenes import load_scene
 
@@ -159,3 +167,23 @@ def test_polyline_uses_the_models_kinematics(run):
     m = run.scene.model()
     q = np.concatenate([[run.heave[7]], run.angles[7]])
     assert np.array_equal(run.polyline[7], dynamics.joint_positions(m, q))
+
+
+def test_summary_of_a_run_without_diagnostics(run):
+    """A node run that ended before its first /diagnostics message (1 Hz; e.g. stopped while
+    still compiling) has no real-time factor, rejected-input or overrun counts to report: the
+    summary says n/a, not nan or 0. (A headless recording always has one at t = 0, so the loaded
+    run is stripped of its diagnostics as a recording without them would load.)"""
+    counts = {k: v for k, v in run.counts.items() if k != "/diagnostics"}
+    bare = dataclasses.replace(run, diagnostics={}, diagnostics_text={}, counts=counts)
+    text = summary(bare)
+    assert "real-time     n/a (no diagnostics recorded" in text
+    assert "overruns      n/a" in text and "rejected      n/a" in text
+    assert "nan" not in text
+
+
+def test_summary_reports_the_recorded_counters(run):
+    text = summary(run)
+    assert run.counts["/diagnostics"] >= 2
+    assert "overruns      0" in text and "rejected      0 inputs" in text
+    assert "real-time     n/a" not in text

@@ -75,17 +75,21 @@ def summary_values(run: Run) -> dict[str, Any]:
 def summary(run: Run) -> str:
     """Human-readable summary of a run."""
     s = summary_values(run)
+    # the node's counters arrive with /diagnostics (1 Hz by default, the first after a second):
+    # a shorter run has none
+    diagnosed = bool(run.diagnostics)
     lines = [
         f"file          {run.path}",
         f"scene         {s['scene']} (n = {s['n_links']}, {s['integrator']}, h = {s['step']:g} s, "
         f"kernel {s['kernel']}, clock {s['clock_mode']})",
         f"duration      {s['duration']:.3f} s simulated (t = {run.t[0]:.3f} .. {s['t_end']:.3f} s)",
-        f"real-time     {s['real_time_factor']:.3g} x (last reported)",
+        f"real-time     {s['real_time_factor']:.3g} x (last reported)" if diagnosed else
+        "real-time     n/a (no diagnostics recorded: the run ended before the first)",
         f"fairlead T    max {s['fairlead_tension_max']:.6g} N, RMS {s['fairlead_tension_rms']:.6g} N",
         f"tip excursion max {s['tip_excursion_max']:.4g} m from its initial position "
         f"(any joint: {s['joint_excursion_max']:.4g} m)",
-        f"rejected      {s['rejected_inputs']} inputs",
-        f"overruns      {s['overruns']}",
+        f"rejected      {s['rejected_inputs']} inputs" if diagnosed else "rejected      n/a",
+        f"overruns      {s['overruns']}" if diagnosed else "overruns      n/a",
     ]
     if "touchdown_x_min" in s:
         lines += [
