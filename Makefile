@@ -48,8 +48,8 @@ run: $(PKG_STAMP)
 
 # The suite in two parts: all but the wall-clock tests on TEST_WORKERS processes (one per core of
 # the 2-core CI machine; --dist loadscope keeps a module's tests, and so its module-scoped node or
-# bench fixture, on one worker), then the tests marked `realtime` alone. At most 4 workers (each
-# draws its ROS domains from its own quarter of 10..100, test/ros_util.isolate_ros).
+# bench fixture, on one worker), then the tests marked `realtime` alone. At most 4 workers (worker
+# k of N draws its ROS domains from the d % N == k part of 10..100, test/ros_util.isolate_ros).
 TEST_WORKERS ?= 2
 
 test: $(PKG_STAMP)

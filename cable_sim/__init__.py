@@ -24,6 +24,9 @@ from pathlib import Path
 #: Days after which the numba cache folder of another version of the package is removed.
 STALE_CACHE_DAYS = 14.0
 
+#: Hex digits of the cache folder's name (the key of :func:`_numba_cache_dir`).
+_KEY_DIGITS = 16
+
 
 def _numba_cache_dir() -> Path:
     """``$XDG_CACHE_HOME/cable_sim/numba/<hash>`` (default ``~/.cache``), the hash covering this
@@ -36,7 +39,7 @@ def _numba_cache_dir() -> Path:
             digest.update(path.relative_to(root).as_posix().encode())
             digest.update(text)
     base = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache")
-    return base / "cable_sim" / "numba" / digest.hexdigest()[:16]
+    return base / "cable_sim" / "numba" / digest.hexdigest()[:_KEY_DIGITS]
 
 
 def _prune_stale_caches(chosen: Path, max_age_s: float, now: float | None = None) -> list[Path]:
@@ -55,7 +58,7 @@ def _prune_stale_caches(chosen: Path, max_age_s: float, now: float | None = None
     except OSError:
         return removed
     for other in siblings:
-        if other == chosen or not re.fullmatch(r"[0-9a-f]{16}", other.name):
+        if other == chosen or not re.fullmatch(f"[0-9a-f]{{{_KEY_DIGITS}}}", other.name):
             continue
         try:
             if other.is_dir() and now - other.stat().st_mtime > max_age_s:

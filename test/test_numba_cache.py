@@ -47,9 +47,11 @@ def test_key_changes_with_the_text_of_a_compiled_module(tmp_path: Path, monkeypa
     copy = tmp_path / "cable_sim"
     shutil.copytree(src, copy, ignore=shutil.ignore_patterns("__pycache__"))
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
+    k_tree = _numba_cache_dir()
     monkeypatch.setattr(cable_sim, "__file__", str(copy / "__init__.py"))
     k0 = _numba_cache_dir()
     assert k0.parent == tmp_path / "cache" / "cable_sim" / "numba"
+    assert k0.name != k_tree.name and len(k0.name) == 16
     plain = copy / "core" / "params.py"
     assert b"numba" not in plain.read_bytes()
     plain.write_text(plain.read_text() + "\n# edited\n")
