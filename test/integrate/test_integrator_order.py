@@ -43,9 +43,15 @@ STEPS = {4: (0.1, 0.05, 0.025, 0.0125), 3: (0.04, 0.02, 0.01, 0.005), 2: (0.04, 
 #: Ladders of single schemes where the order's ladder starts before the asymptotic range
 #: (w6s4os, order 4: 0.1 s is pre-asymptotic on the anchored scene, 0.1 -> 0.05 gives order 5.4).
 STEPS_BY_NAME = {"w6s4os": (0.04, 0.02, 0.01)}
+#: Settings of single schemes in these tests: Radau IIA's stage equations solved far below the
+#: round-off comparison's tolerance (at its default Newton tolerance, 1e-8, the fast path and
+#: the dense fallback stop their iterations at different points, 5e-9 apart on the anchored line)
+KWARGS_BY_NAME = {"radau_iia": {"newton_tol": 1e-12}}
 
-#: (the adaptive ``ros34pw2_adaptive`` has its own tests: test_ros34.py)
-FIXED_STEP = sorted(name for name in set(INTEGRATORS) - {"dop853"} | set(implicit.INTEGRATORS)
+#: (the adaptive ``ros34pw2_adaptive`` has its own tests: test_ros34.py; Radau IIA, order 5,
+#: has its own order test on the drag-free scene, test_radau.py: on this Morison scene the drag's
+#: kink at zero relative velocity (|v| v) limits its observed order at the finest steps)
+FIXED_STEP = sorted(name for name in (set(INTEGRATORS) | set(implicit.INTEGRATORS)) - {"dop853", "radau_iia"}
                     if not getattr({**INTEGRATORS, **implicit.INTEGRATORS}[name], "adaptive", False))
 
 
@@ -155,7 +161,8 @@ def test_implicit_fast_path_equals_dense_fallback(name: str, end: str, drag: str
     y0 = _initial(model, _inputs)
     res = {}
     for kernel in ("fast", "dense"):
-        integ = make_integrator(name, CableSystem(model, _inputs, kernel), 0.01)
+        integ = make_integrator(name, CableSystem(model, _inputs, kernel), 0.01,
+                                **KWARGS_BY_NAME.get(name, {}))
         assert integ.compiled is (kernel == "fast")
         res[kernel] = integ.advance(0.0, y0, 0.5)
     scale = np.max(np.abs(res["dense"]))

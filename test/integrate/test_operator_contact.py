@@ -21,7 +21,8 @@ independently of the O(n) code:
 States: a V-shaped line whose dip lies on the bed, with links fully, partly and not in contact
 (asserted), random velocities large enough that the damper cuts the contact interval short
 (the force ``k delta - c zdot`` reaches zero inside a link). Free and anchored ends, heave free
-and locked, with and without added mass. Tolerance 1e-9 relative (the finite differences are
+and locked, with and without added mass; a real ``hg`` and a complex one (Radau IIA's complex
+eigenvalue, :mod:`cable_sim.integrate.implicit.radau`). Tolerance 1e-9 relative (the finite differences are
 good to ~1e-11 here); the bed's terms change the result by far more (asserted).
 """
 
@@ -143,9 +144,11 @@ def _cases():
     yield "anchored", True, False
 
 
+@pytest.mark.parametrize("hg_kind", ["real", "complex"])
 @pytest.mark.parametrize("moving", [False, True])
 @pytest.mark.parametrize(("end", "locked", "added"), list(_cases()))
-def test_operator_with_contact_equals_dense(end: str, locked: bool, added: bool, moving: bool) -> None:
+def test_operator_with_contact_equals_dense(end: str, locked: bool, added: bool, moving: bool,
+                                            hg_kind: str) -> None:
     n = 24
     p = _params(end, locked, added, n)
     m = CableModel.from_params(p)
@@ -155,6 +158,8 @@ def test_operator_with_contact_equals_dense(end: str, locked: bool, added: bool,
     for _ in range(3):
         q, qd = _state(m, rng, moving)
         hg = rng.uniform(0.01, 0.08)
+        if hg_kind == "complex":  # Radau IIA's h / lambda_2: the argument of 1 / (2.68 + 3.05 i)
+            hg = hg * np.exp(-0.85j)
         kgeo = rng.uniform(0.0, 2.0e3, n)
         M, D, K = implicit.dense_operator(bare, q, qd, kgeo)
         Dc, Kc = _contact_reference(m, q, qd)
@@ -162,6 +167,8 @@ def test_operator_with_contact_equals_dense(end: str, locked: bool, added: bool,
         Mt = M + hg * D + hg * hg * K
         for _ in range(2):
             rd, rk = rng.normal(size=m.ndof), rng.normal(size=m.ndof)
+            if hg_kind == "complex":  # (the Newton iteration's right-hand sides are complex)
+                rd = rd + 1j * rng.normal(size=m.ndof)
             ref = hg * (D @ rd) + hg * (K @ rk)
             got = implicit.operator_product(m, q, qd, hg, rd, rk, kgeo)
             without = implicit.operator_product(bare, q, qd, hg, rd, rk, kgeo)
@@ -169,13 +176,15 @@ def test_operator_with_contact_equals_dense(end: str, locked: bool, added: bool,
             worst = max(worst, np.abs(got - ref).max() / sc)
             effect = min(effect, np.abs(without - ref).max() / sc)
             rhs = 1e3 * rng.normal(size=m.ndof)
+            if hg_kind == "complex":
+                rhs = rhs + 1e3j * rng.normal(size=m.ndof)
             x_ref = _dense_solve(m, q, Mt, rhs)
             x = implicit.operator_solve(m, q, qd, hg, rhs, kgeo)
             x_bare = implicit.operator_solve(bare, q, qd, hg, rhs, kgeo)
             sc = np.abs(x_ref).max()
             worst = max(worst, np.abs(x - x_ref).max() / sc)
             effect = min(effect, np.abs(x_bare - x_ref).max() / sc)
-    print(f"\n{end} locked={locked} added_mass={added} moving={moving}: O(n) vs dense "
+    print(f"\n{end} locked={locked} added_mass={added} moving={moving} hg {hg_kind}: O(n) vs dense "
           f"{worst:.1e} (bed's terms change it by >= {effect:.1e})")
     assert worst < TOL
     assert effect > 1e3 * TOL

@@ -63,6 +63,13 @@ Schemes (:data:`INTEGRATORS`):
   order 4 for any ``W`` on the same compiled step, fixed step only (no embedded solution);
   ``R(-inf) = 0`` but only A(89.5 deg)-stable. Six force evaluations and six O(n) solves per
   step; the largest steps within 1 cm at moderate n.
+* :class:`~cable_sim.integrate.implicit.radau.RadauIIA` (``radau_iia``): three-stage Radau IIA,
+  order 5, L-stable, stiffly accurate, *fully* implicit: its stage equations are solved by
+  simplified Newton with the same local operator (one real and one complex O(n) solve per
+  iteration, :mod:`~cable_sim.integrate.implicit.radau_step`), so the operator only has to make
+  the iteration converge; a step whose iteration does not converge is redone in halves. Fixed
+  step; the largest steps within 1 cm at large n (the W-methods' step there is bounded by how
+  far the local operator is from the Jacobian).
 
 All have a compiled fast path (system kernel ``"fast"``: the whole step, its checks and the
 projection run in numba; :meth:`advance` runs many steps in one call) and a dense fallback
@@ -77,8 +84,9 @@ and adaptive: its theory, dense reference step and integrator classes; its parts
 module: ``ros_tableau`` (a W-method's coefficients in both forms, ROS34PW2's), ``ros_step`` (the
 compiled step and fixed-step run, parametrised by the tableau), ``ros_adaptive`` (error norm, PI
 controller, compiled adaptive run)), ``ros34prw`` (ROS34PRw, the same loops with another
-tableau), ``w6s4os`` (W6S4OS, the same step with a six-stage tableau), ``dense`` (the dense
-reference operator and solve).
+tableau), ``w6s4os`` (W6S4OS, the same step with a six-stage tableau), ``radau`` (Radau IIA:
+coefficients, dense reference step, integrator class) with ``radau_step`` (its compiled step and
+fixed-step run), ``dense`` (the dense reference operator and solve).
 
 Integrate layer: this ``__init__`` re-exports its modules' public API; they import numba,
 numpy, :mod:`cable_sim.core` and :mod:`cable_sim.integrate.base`.
@@ -89,6 +97,7 @@ from __future__ import annotations
 from cable_sim.integrate.implicit import dense
 from cable_sim.integrate.implicit.dense import dense_operator
 from cable_sim.integrate.implicit.operator import geometric_stiffness, operator_product, operator_solve
+from cable_sim.integrate.implicit.radau import RadauIIA
 from cable_sim.integrate.implicit.ros34 import Ros34PW2, Ros34PW2Adaptive
 from cable_sim.integrate.implicit.ros34prw import Ros34PRw, Ros34PRwAdaptive
 from cable_sim.integrate.implicit.schemes import INTEGRATORS, LinearlyImplicitEuler, Rosenbrock2
@@ -103,6 +112,7 @@ __all__ = [
     "Ros34PRw",
     "Ros34PRwAdaptive",
     "W6S4OS",
+    "RadauIIA",
     "operator_solve",
     "operator_product",
     "dense_operator",

@@ -63,14 +63,16 @@ def dense_operator(
 
 
 def _dense_solve(model: CableModel, q: np.ndarray, Mt: np.ndarray, rhs: np.ndarray) -> np.ndarray:
-    """Solve ``Mt x = rhs`` (anchored: with ``J x = 0``) densely, heave lock respected."""
+    """Solve ``Mt x = rhs`` (anchored: with ``J x = 0``) densely, heave lock respected (real or
+    complex ``Mt``, ``rhs``)."""
     s = 1 if model.heave_locked else 0
-    x = np.zeros(model.ndof)
+    dtype = np.result_type(Mt, rhs)  # complex for Radau IIA's complex eigenvalue
+    x = np.zeros(model.ndof, dtype=dtype)
     A = Mt[s:, s:]
     if model.constrained:
         J = dynamics.constraint_jacobian(model, q)[:, s:]
         k = A.shape[0]
-        kkt = np.zeros((k + 2, k + 2))
+        kkt = np.zeros((k + 2, k + 2), dtype=dtype)
         kkt[:k, :k] = A
         kkt[:k, k:] = J.T
         kkt[k:, :k] = J

@@ -46,10 +46,12 @@ from cable_sim.integrate.implicit.op_terms import _contact_moments, _link_terms
 
 
 @nb.njit(cache=True, inline="always")
-def _op_inward(arr: np.ndarray, W: np.ndarray, mload: float, hg: float, contact: bool) -> float:
+def _op_inward(arr: np.ndarray, G: np.ndarray, W: np.ndarray, mload: float, hg: float,
+               contact: bool) -> float:
     """The 3x3 articulated inertias ``[[c, w^T], [w, A]]``, tip to platform; fills ``1/D_i`` and
     ``u_i`` (world frame) in W and returns the platform's ``A_zz`` (see :func:`_op_factor`).
-    A and w stay in each link's frame; the parent turns them into its own by the relative
+    ``G`` holds the real geometry rows (cos/sin, contact interval; ``G is W`` for a real
+    ``hg``). A and w stay in each link's frame; the parent turns them into its own by the relative
     angle (:func:`cable_sim.core.kernel.frames.to_parent_frame`).
 
     ``contact`` (a constant at each call: the model has a seabed) adds the contact intervals'
@@ -64,8 +66,8 @@ def _op_inward(arr: np.ndarray, W: np.ndarray, mload: float, hg: float, contact:
     kb = arr[8]  # seabed stiffness and damping per length (contact interval in W)
     cb = arr[9]
     hg2 = hg * hg
-    cth = W[_W_COS]
-    sth = W[_W_SIN]
+    cth = G[_W_COS]
+    sth = G[_W_SIN]
     beta = W[_W_BETA]
     rot = W[_W_ROT]
     # the child's A and w in the child's frame (the load's A is isotropic: any frame), turned
@@ -108,7 +110,7 @@ def _op_inward(arr: np.ndarray, W: np.ndarray, mload: float, hg: float, contact:
             # seabed: a world-z mass of density kap = hg c_b + hg^2 k_b on the contact
             # interval; in the t direction (z.t = s) its mass, moments / l, l^2 and the centred
             # forms
-            za, zb_ = W[_W_CA, i], W[_W_CB, i]
+            za, zb_ = G[_W_CA, i], G[_W_CB, i]
             mz = 0.0
             s1 = 0.0
             q0 = 0.0
@@ -176,13 +178,14 @@ def _op_inward(arr: np.ndarray, W: np.ndarray, mload: float, hg: float, contact:
 
 
 @nb.njit(cache=True, inline="always")
-def _op_rhs_inward(l: np.ndarray, W: np.ndarray, rhs: np.ndarray, use_rhs: bool, bx: float,
-                   bz: float, rr: np.ndarray) -> tuple[float, float]:
+def _op_rhs_inward(l: np.ndarray, G: np.ndarray, W: np.ndarray, rhs: np.ndarray, use_rhs: bool,
+                   bx: float, bz: float, rr: np.ndarray) -> tuple[float, float]:
     """Inward sweep of one right-hand side through a factorisation: a generalised force ``rhs``
     (``use_rhs``) or a unit end force (``bx, bz`` at the end; flushed at TINY). Stores ``-b_i``
-    in ``rr`` (read by the outward sweep) and returns the force on the platform."""
-    cth = W[_W_COS]
-    sth = W[_W_SIN]
+    in ``rr`` (read by the outward sweep) and returns the force on the platform (``G``: the
+    real geometry rows)."""
+    cth = G[_W_COS]
+    sth = G[_W_SIN]
     idd = W[_W_D]
     uxa = W[_W_UX]
     uza = W[_W_UZ]
@@ -210,19 +213,19 @@ def _op_rhs_inward(l: np.ndarray, W: np.ndarray, rhs: np.ndarray, use_rhs: bool,
 
 
 @nb.njit(cache=True, error_model="numpy", fastmath={"contract"})
-def _op_unit_forces(arr: np.ndarray, par: np.ndarray, W: np.ndarray, S: np.ndarray,
-                    X: np.ndarray) -> None:
+def _op_unit_forces(arr: np.ndarray, par: np.ndarray, G: np.ndarray, W: np.ndarray,
+                    S: np.ndarray, X: np.ndarray) -> None:
     """``X = M~^-1 J^T`` (two unit end forces, +x and +z) and ``J X`` into S."""
     l = arr[0]
     locked = par[7] != 0.0
     mp = par[4]
     for k in range(2):
-        bx, bz = _op_rhs_inward(l, W, X[k], False, -1.0 if k == 0 else 0.0,
+        bx, bz = _op_rhs_inward(l, G, W, X[k], False, -1.0 if k == 0 else 0.0,
                                 0.0 if k == 0 else -1.0, X[k, 1:])
         zdd = 0.0 if locked else -bz / (mp + S[_S_BETA0] + S[_S_AZZ])
         # column k of J X: (J00, J10) for k = 0 -> stored J00, J01 = row 0
         S[_S_J00 + k], S[_S_J10 + k] = outward_sweep(
-            l, W[_W_COS], W[_W_SIN], X[k], False, W[_W_BETA], True, X[k, 1:], W[_W_UX],
+            l, G[_W_COS], G[_W_SIN], X[k], False, W[_W_BETA], True, X[k, 1:], W[_W_UX],
             W[_W_UZ], W[_W_D], zdd, X[k])
 
 
@@ -233,16 +236,19 @@ def _op_factor(arr: np.ndarray, par: np.ndarray, q: np.ndarray, qd: np.ndarray, 
     """Articulated inertias of ``M~ = M + hg D + hg^2 K`` at (q, qd); fills W, S, X (the
     links' cos/sin first, then :func:`_op_factor_trig`)."""
     link_trig(q, W[_W_COS], W[_W_SIN])
-    return _op_factor_trig(arr, par, q, qd, hg, kgeo, W, S, X, horizon)
+    return _op_factor_trig(arr, par, q, qd, hg, kgeo, W, W, S, X, horizon)
 
 
 @nb.njit(cache=True, error_model="numpy", fastmath={"contract"})
 def _op_factor_trig(arr: np.ndarray, par: np.ndarray, q: np.ndarray, qd: np.ndarray, hg: float,
-                    kgeo: np.ndarray, W: np.ndarray, S: np.ndarray, X: np.ndarray,
+                    kgeo: np.ndarray, G: np.ndarray, W: np.ndarray, S: np.ndarray, X: np.ndarray,
                     horizon: float) -> bool:
-    """Articulated inertias of ``M~ = M + hg D + hg^2 K`` at (q, qd); fills W, S, X. W's rows
-    ``_W_COS``, ``_W_SIN`` must hold the cos/sin of the links' angles ``q[1:]`` already (the
-    compiled runs copy those of the forward dynamics at the same q).
+    """Articulated inertias of ``M~ = M + hg D + hg^2 K`` at (q, qd); fills W, S, X. ``G`` holds
+    the real geometry rows: its ``_W_COS``, ``_W_SIN`` must hold the cos/sin of the links' angles
+    ``q[1:]`` already (the compiled runs copy those of the forward dynamics at the same q), its
+    contact interval is written here. For a real ``hg`` G is W itself; for a complex ``hg``
+    (Radau IIA's complex eigenvalue, :mod:`cable_sim.integrate.implicit.radau_step`) W, S, X are
+    complex and G is the real factorisation's W at the same state and horizon.
 
     ``horizon`` (the step h in the schemes; 0: the Jacobian at (q, qd) itself): the seabed
     contact's terms cover the part of each link in the bed now or at ``q + horizon qd``
@@ -271,14 +277,14 @@ def _op_factor_trig(arr: np.ndarray, par: np.ndarray, q: np.ndarray, qd: np.ndar
     """
     constrained = par[10] != 0.0
     mc = par[2]
-    _link_terms(arr, par, q, qd, hg, kgeo, W, horizon)
+    _link_terms(arr, par, q, qd, hg, kgeo, G, W, horizon)
     heavy = woodbury_load(arr[1], mc, constrained, par[7] != 0.0)
     extra = constrained or heavy
     mload = 0.0 if extra else mc
     if par[17] != 0.0:  # seabed: the contact terms (chosen once per factorisation)
-        azz = _op_inward(arr, W, mload, hg, True)
+        azz = _op_inward(arr, G, W, mload, hg, True)
     else:
-        azz = _op_inward(arr, W, mload, hg, False)
+        azz = _op_inward(arr, G, W, mload, hg, False)
     S[_S_BETA0] = hg * par[6] + (hg * hg) * par[5]
     S[_S_AZZ] = azz
     S[_S_MC] = mc
@@ -286,5 +292,5 @@ def _op_factor_trig(arr: np.ndarray, par: np.ndarray, q: np.ndarray, qd: np.ndar
         S[_S_MODE] = _MODE_NONE
         return True
     S[_S_MODE] = _MODE_CONSTRAINED if constrained else _MODE_HEAVY
-    _op_unit_forces(arr, par, W, S, X)
+    _op_unit_forces(arr, par, G, W, S, X)
     return not (constrained and singular_2x2(S[_S_J00], S[_S_J01], S[_S_J10], S[_S_J11]))

@@ -35,9 +35,10 @@ from cable_sim.integrate.implicit.op_terms import _contact_moments
 
 
 @nb.njit(cache=True, error_model="numpy", fastmath={"contract"})
-def _dk_product(arr: np.ndarray, par: np.ndarray, hg: float, W: np.ndarray, rd: np.ndarray,
-                rk: np.ndarray, out: np.ndarray) -> None:
-    """``out = hg D rd + hg K rk`` with the local ``D``, ``K`` of the factorisation in W."""
+def _dk_product(arr: np.ndarray, par: np.ndarray, hg: float, G: np.ndarray, W: np.ndarray,
+                rd: np.ndarray, rk: np.ndarray, out: np.ndarray) -> None:
+    """``out = hg D rd + hg K rk`` with the local ``D``, ``K`` of the factorisation in W
+    (``G``: its real geometry rows, W itself for a real ``hg``)."""
     n = arr.shape[1]
     l = arr[0]
     drot = W[_W_DROT]
@@ -55,14 +56,14 @@ def _dk_product(arr: np.ndarray, par: np.ndarray, hg: float, W: np.ndarray, rd: 
             t_i = t_next
         out[n] = t_i + (drot[n - 1] * rd[n] + kg[n - 1] * rk[n])
     if int(par[1]) == 2:
-        _morison_product(l, W, rd, out)
+        _morison_product(l, G, W, rd, out)
     if par[17] != 0.0:
-        _contact_product(arr, hg, W, rd, rk, out)
+        _contact_product(arr, hg, G, W, rd, rk, out)
 
 
 @nb.njit(cache=True, error_model="numpy", fastmath={"contract"})
-def _contact_product(arr: np.ndarray, hg: float, W: np.ndarray, rd: np.ndarray, rk: np.ndarray,
-                     out: np.ndarray) -> None:
+def _contact_product(arr: np.ndarray, hg: float, G: np.ndarray, W: np.ndarray, rd: np.ndarray,
+                     rk: np.ndarray, out: np.ndarray) -> None:
     """``out += int J_z^T hg (c_b J_z rd + k_b J_z rk) ds`` over each link's contact interval:
     the z "velocities" ``J_z(s) r = r_z,pin + s sin(theta) r_theta`` (linear in s), their
     resultant and first moment per link, generalised by ``J_z^T`` (reverse sums)."""
@@ -70,15 +71,15 @@ def _contact_product(arr: np.ndarray, hg: float, W: np.ndarray, rd: np.ndarray, 
     l = arr[0]
     kb = arr[8]
     cb = arr[9]
-    sth = W[_W_SIN]
+    sth = G[_W_SIN]
     fz = W[_W_PX]  # per-link scratch: resultant and first moment of the z forces
     mzs = W[_W_PZ]
     pd = rd[0]
     pk = rk[0]
     for i in range(n):
         s = sth[i]
-        a = W[_W_CA, i]
-        b = W[_W_CB, i]
+        a = G[_W_CA, i]
+        b = G[_W_CB, i]
         if b > a:
             h0, h1, h2 = _contact_moments(a, b)
             fd = cb[i] * (h0 * pd + h1 * s * rd[i + 1]) + kb[i] * (h0 * pk + h1 * s * rk[i + 1])
@@ -98,12 +99,13 @@ def _contact_product(arr: np.ndarray, hg: float, W: np.ndarray, rd: np.ndarray, 
 
 
 @nb.njit(cache=True, error_model="numpy", fastmath={"contract"})
-def _morison_product(l: np.ndarray, W: np.ndarray, rd: np.ndarray, out: np.ndarray) -> None:
+def _morison_product(l: np.ndarray, G: np.ndarray, W: np.ndarray, rd: np.ndarray,
+                     out: np.ndarray) -> None:
     """``out += J_c^T (hg G) J_c rd``: centre "velocities" ``J_c rd``, forces ``hg G J_c rd``,
     generalised by ``J_c^T`` (reverse sums)."""
     n = l.shape[0]
-    cth = W[_W_COS]
-    sth = W[_W_SIN]
+    cth = G[_W_COS]
+    sth = G[_W_SIN]
     gta = W[_W_GT]
     gea = W[_W_GE]
     fxa = W[_W_PX]  # per-link scratch: the forces hg G J_c rd

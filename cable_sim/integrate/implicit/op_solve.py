@@ -36,16 +36,17 @@ from cable_sim.integrate.implicit.op_layout import (
 
 
 @nb.njit(cache=True, inline="always")
-def _solve_inward(l: np.ndarray, W: np.ndarray, rhs: np.ndarray, rr: np.ndarray) -> float:
+def _solve_inward(l: np.ndarray, G: np.ndarray, W: np.ndarray, rhs: np.ndarray,
+                  rr: np.ndarray) -> float:
     """:func:`_op_rhs_inward` of a generalised force (``-b_i`` into ``rr``; returns the
     vertical force on the platform) with the recursion written as an affine map of the state
     ``(b_n, b_x, b_z)``: ``b = (b_n - r) + lt . (b_x, b_z)``, ``b_n' = k b``, ``(b_x, b_z)' =
     (b_x, b_z) - g b`` (``k = beta/D``, ``g = u/D``) expanded into products of the old state
     with factors formed off the recursion's chain (``1 - g_x l t_x``, ...), so that on the chain
     each new entry costs two products and two sums in a tree instead of the chain through b.
-    Equal to round-off."""
-    cth = W[_W_COS]
-    sth = W[_W_SIN]
+    Equal to round-off. ``G``: the real geometry rows (``G is W`` for a real ``hg``)."""
+    cth = G[_W_COS]
+    sth = G[_W_SIN]
     idd = W[_W_D]
     uxa = W[_W_UX]
     uza = W[_W_UZ]
@@ -71,7 +72,7 @@ def _solve_inward(l: np.ndarray, W: np.ndarray, rhs: np.ndarray, rr: np.ndarray)
 
 
 @nb.njit(cache=True, inline="always")
-def _solve_outward(l: np.ndarray, W: np.ndarray, rr: np.ndarray, zdd: float,
+def _solve_outward(l: np.ndarray, G: np.ndarray, W: np.ndarray, rr: np.ndarray, zdd: float,
                    x: np.ndarray) -> tuple[float, float]:
     """The outward sweep of :func:`_op_solve` (``x = [zdd, alpha_1..n]``; returns the end's
     acceleration), as :func:`cable_sim.core.kernel.sweeps.outward_sweep` with the armature
@@ -79,8 +80,8 @@ def _solve_outward(l: np.ndarray, W: np.ndarray, rr: np.ndarray, zdd: float,
     ``alpha' = R/D + k alpha - g . a``, ``a' = a + l t alpha'`` expanded so that the new pin
     acceleration is formed from the old state directly (factors ``1 - l t_x g_x``, ``l t k``,
     ... off the chain), not through ``alpha'``. Equal to round-off."""
-    cth = W[_W_COS]
-    sth = W[_W_SIN]
+    cth = G[_W_COS]
+    sth = G[_W_SIN]
     idd = W[_W_D]
     uxa = W[_W_UX]
     uza = W[_W_UZ]
@@ -107,18 +108,19 @@ def _solve_outward(l: np.ndarray, W: np.ndarray, rr: np.ndarray, zdd: float,
 
 
 @nb.njit(cache=True, error_model="numpy", fastmath={"contract"})
-def _op_solve(arr: np.ndarray, par: np.ndarray, W: np.ndarray, S: np.ndarray, X: np.ndarray,
-              rhs: np.ndarray, x: np.ndarray) -> None:
+def _op_solve(arr: np.ndarray, par: np.ndarray, G: np.ndarray, W: np.ndarray, S: np.ndarray,
+              X: np.ndarray, rhs: np.ndarray, x: np.ndarray) -> None:
     """Solve ``M~ x = rhs`` (anchored: with ``J x = 0``) using a factorisation from
-    :func:`_op_factor`. ``rhs`` is a generalised force: ``rhs[0]`` a vertical force on the
-    platform, ``rhs[i]`` a couple on link i. The two sweeps are :func:`_solve_inward` and
+    :func:`_op_factor` (``G``: its real geometry rows, W itself for a real ``hg``). ``rhs``
+    is a generalised force: ``rhs[0]`` a vertical force on the platform, ``rhs[i]`` a couple
+    on link i. The two sweeps are :func:`_solve_inward` and
     :func:`_solve_outward` (the unit end forces of the factorisation take
     :func:`_op_rhs_inward` and the shared outward sweep)."""
     l = arr[0]
     bcn = W[_W_BCN]
-    bz = _solve_inward(l, W, rhs, bcn)
+    bz = _solve_inward(l, G, W, rhs, bcn)
     zdd = 0.0 if par[7] != 0.0 else (rhs[0] - bz) / (par[4] + S[_S_BETA0] + S[_S_AZZ])
-    apx, apz = _solve_outward(l, W, bcn, zdd, x)
+    apx, apz = _solve_outward(l, G, W, bcn, zdd, x)
     mode = S[_S_MODE]
     if mode == _MODE_NONE:
         return

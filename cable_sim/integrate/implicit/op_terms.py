@@ -33,10 +33,11 @@ from cable_sim.integrate.implicit.op_layout import (
 
 @nb.njit(cache=True, inline="always")
 def _link_terms(arr: np.ndarray, par: np.ndarray, q: np.ndarray, qd: np.ndarray, hg: float,
-                kgeo: np.ndarray, W: np.ndarray, horizon: float) -> None:
-    """Per-link terms of ``M~`` at (q, qd) into W (whose cos/sin rows already hold those of
-    q): joint armature ``beta``, extra rotational inertia (paper drag ``drot``, tension
-    stiffness ``kg``), extra centre masses ``g_t, g_e`` (the Jacobian of the Morison force:
+                kgeo: np.ndarray, G: np.ndarray, W: np.ndarray, horizon: float) -> None:
+    """Per-link terms of ``M~`` at (q, qd) into W (``G``: the real geometry rows, whose
+    cos/sin already hold those of q; the contact interval is written there): joint armature
+    ``beta``, extra rotational inertia (paper drag ``drot``, tension stiffness ``kg``), extra
+    centre masses ``g_t, g_e`` (the Jacobian of the Morison force:
     ``2 c_n |v.t|``, ``2 c_t |v.e|``)."""
     n = arr.shape[1]
     l = arr[0]
@@ -68,8 +69,8 @@ def _link_terms(arr: np.ndarray, par: np.ndarray, q: np.ndarray, qd: np.ndarray,
         vx = 0.0
         vz = qd[0]
         for i in range(n):
-            c = W[_W_COS, i]
-            s = W[_W_SIN, i]
+            c = G[_W_COS, i]
+            s = G[_W_SIN, i]
             w = qd[i + 1]
             vcx, vcz = centre_velocity(vx, vz, l[i], c, s, w, current)
             vt, ve = link_frame_velocity(vcx, vcz, c, s)  # normal (along t), axial (along e)
@@ -82,13 +83,15 @@ def _link_terms(arr: np.ndarray, par: np.ndarray, q: np.ndarray, qd: np.ndarray,
             ge[i] = 0.0
     for i in range(n):
         rot[i] = drot[i] + hg * kg[i]
-    _contact_terms(arr, par, q, qd, W, horizon)
+    _contact_terms(arr, par, q, qd, G, horizon)
 
 
 @nb.njit(cache=True, inline="always")
 def _contact_terms(arr: np.ndarray, par: np.ndarray, q: np.ndarray, qd: np.ndarray,
-                   W: np.ndarray, horizon: float) -> None:
-    """Each link's seabed contact interval ``[a, b]`` into W (``a = b = 0`` without; not
+                   G: np.ndarray, horizon: float) -> None:
+    """Each link's seabed contact interval ``[a, b]`` into the real geometry rows G (the
+    factorisation's W or, for a complex ``hg``, the real factorisation's at the same state;
+    ``a = b = 0`` without; not
     written without a seabed, where nothing reads them).
 
     ``horizon`` = 0: where the bed pushes on the link at (q, qd)
@@ -110,8 +113,8 @@ def _contact_terms(arr: np.ndarray, par: np.ndarray, q: np.ndarray, qd: np.ndarr
     vz = qd[0]
     pze = q[0] + horizon * qd[0]  # the joint's z at the extrapolated state q + horizon qd
     for i in range(n):
-        c = W[_W_COS, i]
-        s = W[_W_SIN, i]
+        c = G[_W_COS, i]
+        s = G[_W_SIN, i]
         w = qd[i + 1]
         if horizon > 0.0:
             # in the bed now, and at the extrapolated state (k = 1, c = 0: the force is delta)
@@ -126,8 +129,8 @@ def _contact_terms(arr: np.ndarray, par: np.ndarray, q: np.ndarray, qd: np.ndarr
                 b = max(b, bp)
         else:
             a, b = touching_interval(pz, vz, c, s, w, l[i], zb, kb[i], cb[i])
-        W[_W_CA, i] = a
-        W[_W_CB, i] = b
+        G[_W_CA, i] = a
+        G[_W_CB, i] = b
         pz -= l[i] * c
         vz += l[i] * s * w
 

@@ -85,18 +85,28 @@ def geometric_stiffness(model: CableModel, q: np.ndarray, F: np.ndarray) -> np.n
     return np.maximum(0.0, model.length * t_mean)
 
 
-def _factor_fast(model: CableModel, q: np.ndarray, qd: np.ndarray, hg: float,
+def _factor_fast(model: CableModel, q: np.ndarray, qd: np.ndarray, hg: float | complex,
                  kgeo: np.ndarray | None, horizon: float = 0.0):
+    """Factor at (q, qd): ``arr, par, G, W, S, X, ok`` (``G``: the real geometry rows; for a
+    complex ``hg`` those of a real factorisation at the same state, W, S, X complex)."""
     arr, par = pack_arrays(model)
     n = model.n
+    q = np.ascontiguousarray(q, dtype=float)
+    qd = np.ascontiguousarray(qd, dtype=float)
+    kg = np.zeros(n) if kgeo is None else np.ascontiguousarray(kgeo, dtype=float)
     W = np.zeros((_NW, n))
     S = np.zeros(_NS)
     X = np.zeros((2, n + 1))
-    kg = np.zeros(n) if kgeo is None else np.ascontiguousarray(kgeo, dtype=float)
-    ok = _op_factor(arr, par, np.ascontiguousarray(q, dtype=float),
-                    np.ascontiguousarray(qd, dtype=float), float(hg), kg, W, S, X,
+    cplx = isinstance(hg, complex | np.complexfloating)
+    ok = _op_factor(arr, par, q, qd, float(abs(hg)) if cplx else float(hg), kg, W, S, X,
                     float(horizon))
-    return arr, par, W, S, X, ok
+    if not cplx:
+        return arr, par, W, W, S, X, ok
+    Wc = np.zeros((_NW, n), dtype=complex)
+    Sc = np.zeros(_NS, dtype=complex)
+    Xc = np.zeros((2, n + 1), dtype=complex)
+    ok = _op_factor_trig(arr, par, q, qd, complex(hg), kg, W, Wc, Sc, Xc, float(horizon))
+    return arr, par, W, Wc, Sc, Xc, ok
 
 
 def operator_solve(
@@ -115,8 +125,9 @@ def operator_solve(
     model : CableModel
     q, qd : ndarray (n+1,)
         State at which ``M``, ``D`` (drag linearisation) are evaluated.
-    hg : float
-        ``gamma h`` [s]; 0 gives the plain mass matrix.
+    hg : float or complex
+        ``gamma h`` [s]; 0 gives the plain mass matrix. Complex (Radau IIA's
+        ``h / lambda`` for a complex eigenvalue ``lambda`` of ``A^-1``): ``x`` is complex.
     rhs : ndarray (n+1,)
         Generalised force.
     kgeo : ndarray (n,), optional
@@ -135,11 +146,11 @@ def operator_solve(
     numpy.linalg.LinAlgError
         If the anchored end's 2x2 Schur matrix is singular.
     """
-    arr, par, W, S, X, ok = _factor_fast(model, q, qd, hg, kgeo, horizon)
+    arr, par, G, W, S, X, ok = _factor_fast(model, q, qd, hg, kgeo, horizon)
     if not ok:
         raise np.linalg.LinAlgError("singular anchor constraint matrix J M~^-1 J^T")
-    x = np.empty(model.ndof)
-    _op_solve(arr, par, W, S, X, np.ascontiguousarray(rhs, dtype=float), x)
+    x = np.empty(model.ndof, dtype=W.dtype)
+    _op_solve(arr, par, G, W, S, X, np.ascontiguousarray(rhs, dtype=W.dtype), x)
     return x
 
 
@@ -155,8 +166,9 @@ def operator_product(
 ) -> np.ndarray:
     """``hg D rd + hg K rk`` in O(n) (the local damping and stiffness of the operator;
     parameters as :func:`operator_solve`)."""
-    arr, par, W, S, X, _ = _factor_fast(model, q, qd, hg, kgeo, horizon)
-    out = np.empty(model.ndof)
-    _dk_product(arr, par, float(hg), W, np.ascontiguousarray(rd, dtype=float),
-                np.ascontiguousarray(rk, dtype=float), out)
+    arr, par, G, W, S, X, _ = _factor_fast(model, q, qd, hg, kgeo, horizon)
+    out = np.empty(model.ndof, dtype=W.dtype)
+    hgv = complex(hg) if W.dtype.kind == "c" else float(hg)
+    _dk_product(arr, par, hgv, G, W, np.ascontiguousarray(rd, dtype=W.dtype),
+                np.ascontiguousarray(rk, dtype=W.dtype), out)
     return out

@@ -96,8 +96,8 @@ def _ros_step(arr: np.ndarray, par: np.ndarray, geometric: bool, predict: bool, 
             rd[j] = rv
             rk[j] = rq + hg * rv
             sq[i, j] = rq  # completed below
-        _dk_product(arr, par, hg, W, rd, rk, rhs)
-        _op_solve(arr, par, W, S, X, rhs, x)
+        _dk_product(arr, par, hg, W, W, rd, rk, rhs)
+        _op_solve(arr, par, W, W, S, X, rhs, x)
         for j in range(n1):
             sv[i, j] = rd[j] - x[j]
             sq[i, j] += hg * sv[i, j]

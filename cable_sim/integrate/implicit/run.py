@@ -58,7 +58,7 @@ def _factor_at(arr: np.ndarray, par: np.ndarray, geometric: bool, hg: float, q: 
     for i in range(n):
         W[_W_COS, i] = cth[i]
         W[_W_SIN, i] = sth[i]
-    return _op_factor_trig(arr, par, q, vf, hg, kgeo, W, S, X, h)
+    return _op_factor_trig(arr, par, q, vf, hg, kgeo, W, W, S, X, h)
 
 
 @nb.njit(cache=True, inline="always")
@@ -66,8 +66,8 @@ def _stage(arr: np.ndarray, par: np.ndarray, hg: float, W: np.ndarray, S: np.nda
            X: np.ndarray, rd: np.ndarray, rk: np.ndarray, rhs: np.ndarray, x: np.ndarray,
            kv: np.ndarray) -> None:
     """One stage's velocity slope ``kv = rd - M~^-1 (hg D rd + hg K rk)``."""
-    _dk_product(arr, par, hg, W, rd, rk, rhs)
-    _op_solve(arr, par, W, S, X, rhs, x)
+    _dk_product(arr, par, hg, W, W, rd, rk, rhs)
+    _op_solve(arr, par, W, W, S, X, rhs, x)
     for j in range(kv.shape[0]):
         kv[j] = rd[j] - x[j]
 

@@ -4,7 +4,8 @@ fallback (:mod:`cable_sim.integrate.implicit.dense`); :data:`INTEGRATORS` by nam
 
 Integrate layer: imports numpy, :mod:`cable_sim.core` (dynamics, system),
 :mod:`cable_sim.integrate.base` and the sibling modules ``dense``, ``operator``, ``run``,
-``ros34`` (ROS34PW2), ``ros34prw`` (ROS34PRw) and ``w6s4os`` (W6S4OS), registered here.
+``ros34`` (ROS34PW2), ``ros34prw`` (ROS34PRw), ``w6s4os`` (W6S4OS) and ``radau`` (Radau IIA),
+registered here.
 """
 
 from __future__ import annotations
@@ -16,6 +17,7 @@ from cable_sim.core.system import CableSystem
 from cable_sim.integrate.base import Integrator
 from cable_sim.integrate.implicit.dense import _dense_solve, dense_operator
 from cable_sim.integrate.implicit.operator import geometric_stiffness
+from cable_sim.integrate.implicit.radau import RadauIIA
 from cable_sim.integrate.implicit.ros34 import Ros34PW2, Ros34PW2Adaptive
 from cable_sim.integrate.implicit.ros34prw import Ros34PRw, Ros34PRwAdaptive
 from cable_sim.integrate.implicit.run import _implicit_run
@@ -169,4 +171,5 @@ INTEGRATORS: dict[str, type[Integrator]] = {
     "ros34prw": Ros34PRw,
     "ros34prw_adaptive": Ros34PRwAdaptive,
     "w6s4os": W6S4OS,
+    "radau_iia": RadauIIA,
 }

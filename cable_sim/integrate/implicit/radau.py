@@ -1,0 +1,212 @@
+"""Radau IIA (three stages, order 5) on the O(n) operator, fixed step.
+
+Why: the W-methods (:mod:`cable_sim.integrate.implicit.ros34`,
+:mod:`~cable_sim.integrate.implicit.w6s4os`) are linearly implicit: one linear solve per stage
+with the local operator ``T`` and no iteration, so ``T`` must be close to the Jacobian where
+the step is large against the fast modes. On the paper's free fall at n = 640 their largest
+step within 1 cm is 5 ms. Radau IIA solves its stage equations to a tolerance instead: ``T``
+only has to make the (simplified) Newton iteration converge, and the step is limited by
+accuracy, not by how well ``T`` approximates the Jacobian.
+
+Method: Radau IIA with three stages (Hairer & Wanner, *Solving ODEs II*, IV.5, Table 5.6):
+collocation at ``c = ((4 - sqrt 6)/10, (4 + sqrt 6)/10, 1)``, order 5, stage order 3,
+L-stable (``R(-inf) = 0``), stiffly accurate (the last stage is the new state). The stage
+equations are solved by simplified Newton in the eigenbasis of ``A^-1`` with one real and one
+complex O(n) solve per iteration (:mod:`cable_sim.integrate.implicit.radau_step`); the
+operator is factored once per step, the drag linearised at the predicted velocity ``v + h a``.
+A step whose iteration does not converge (the release of a free fall, where the accelerations
+reach 1e4 rad/s^2 at n = 640) is redone as two halves, each with its own factorisation, down to
+``h / 4096``; the run then fails loudly (``IntegrationError``: "stage equations did not
+converge").
+
+Cost per step: one force evaluation and two factorisations (one real, one complex), then per
+Newton iteration three force evaluations, one real and one complex O(n) solve. There is no
+embedded error estimate here: fixed step only.
+
+Integrate layer: imports numpy, :mod:`cable_sim.core` (dynamics, system),
+:mod:`cable_sim.integrate.base`, :mod:`cable_sim.integrate.errors` and the sibling modules
+``dense``, ``operator`` and ``radau_step``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from cable_sim.core import dynamics
+from cable_sim.core.system import CableSystem
+from cable_sim.integrate.base import Integrator
+from cable_sim.integrate.errors import IntegrationError
+from cable_sim.integrate.implicit.dense import _dense_solve, dense_operator
+from cable_sim.integrate.implicit.operator import geometric_stiffness as _geometric_stiffness
+from cable_sim.integrate.implicit.radau_step import MAX_HALVINGS, STATUS_NEWTON, _radau_fixed_run
+
+_S6 = np.sqrt(6.0)
+#: Radau IIA (s = 3) coefficients (Hairer & Wanner IV.5, Table 5.6).
+A = np.array([
+    [(88.0 - 7.0 * _S6) / 360.0, (296.0 - 169.0 * _S6) / 1800.0, (-2.0 + 3.0 * _S6) / 225.0],
+    [(296.0 + 169.0 * _S6) / 1800.0, (88.0 + 7.0 * _S6) / 360.0, (-2.0 - 3.0 * _S6) / 225.0],
+    [(16.0 - _S6) / 36.0, (16.0 + _S6) / 36.0, 1.0 / 9.0],
+])
+#: Stage times (fractions of h).
+C = np.array([(4.0 - _S6) / 10.0, (4.0 + _S6) / 10.0, 1.0])
+
+
+def _eigenbasis(a: np.ndarray) -> tuple[float, complex, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``A^-1 = V diag(lambda_1, lambda_2, conj lambda_2) V^-1``: the real eigenvalue, the complex
+    one with positive imaginary part, the matching rows of ``V^-1`` (real, complex) and columns
+    of ``V`` (real, complex)."""
+    lam, vec = np.linalg.eig(np.linalg.inv(a))
+    k1 = int(np.argmin(np.abs(lam.imag)))
+    k2 = int(np.argmax(lam.imag))
+    v1 = vec[:, k1].real / np.max(np.abs(vec[:, k1].real))
+    vec = np.column_stack([v1, vec[:, k2], np.conj(vec[:, k2])])
+    vinv = np.linalg.inv(vec)
+    return (float(lam[k1].real), complex(lam[k2]), np.ascontiguousarray(vinv[0].real),
+            np.ascontiguousarray(vinv[1]), np.ascontiguousarray(v1), np.ascontiguousarray(vec[:, 1]))
+
+
+#: The eigenvalues of ``A^-1`` (real; complex with positive imaginary part), the rows of
+#: ``V^-1`` and columns of ``V`` that go with them (see :func:`_eigenbasis`).
+LAM1, LAM2, TI1, TI2, V1, V2 = _eigenbasis(A)
+#: Where the compiled step samples the inputs: the step's start and the three stage times.
+OFFSETS = np.concatenate([[0.0], C])
+
+
+def _dense_radau_step(system: CableSystem, t: float, y: np.ndarray, h: float, geometric: bool,
+                      predict: bool, tol: float, maxit: int) -> tuple[np.ndarray | None, int]:
+    """One Radau IIA step with the dense ``M``, ``D``, ``K`` and the same Newton iteration as
+    the compiled step from the explicit Euler guess (reference for it): the new state (None when
+    the iteration does not converge) and the iterations done."""
+    model = system.model
+    n1 = model.ndof
+    q, v = y[:n1], y[n1:]
+    acc, lam = system.accelerations(t, y)
+    system.nfev += 1
+    kgeo = None
+    if geometric:
+        kgeo = _geometric_stiffness(model, q, dynamics.joint_forces(model, q, v, acc, lam))
+    M, D, K = dense_operator(model, q, v + h * acc if predict else v, kgeo)
+    hgs = (h / LAM1, h / LAM2)
+    ops = [M + hg * D + hg * hg * K for hg in hgs]
+    Zq = np.outer(C * h, v)
+    Zv = np.outer(C * h, acc)
+    scq = tol * (1.0 + np.abs(q))
+    scv = tol * (1.0 + np.abs(v))
+    prev = np.inf
+    for it in range(maxit):
+        Fq = v + Zv
+        Fv = np.empty_like(Zv)
+        for i in range(3):
+            Fv[i] = system.accelerations(t + C[i] * h, np.concatenate([q + Zq[i], v + Zv[i]]))[0]
+            system.nfev += 1
+        dW = []
+        for ti, hg, Mt in zip((TI1, TI2), hgs, ops, strict=True):
+            rq = hg * (ti @ Fq) - ti @ Zq
+            rv = hg * (ti @ Fv) - ti @ Zv
+            sv = rv - _dense_solve(model, q, Mt, hg * (D @ rv) + hg * (K @ (rq + hg * rv)))
+            dW.append((rq + hg * sv, sv))
+        dq = np.outer(V1, dW[0][0]) + (2.0 * np.outer(V2, dW[1][0])).real
+        dv = np.outer(V1, dW[0][1]) + (2.0 * np.outer(V2, dW[1][1])).real
+        Zq += dq
+        Zv += dv
+        big = max(float(np.max(np.abs(dq) / scq)), float(np.max(np.abs(dv) / scv)))
+        if not np.isfinite(big):
+            return None, it + 1
+        if big <= 1.0:
+            return np.concatenate([q + Zq[2], v + Zv[2]]), it + 1
+        if it > 0 and big >= prev:
+            return None, it + 1
+        prev = big
+    return None, maxit
+
+
+class RadauIIA(Integrator):
+    """Three-stage Radau IIA with simplified Newton on the local O(n) operator, fixed step.
+
+    Order 5 (stage order 3), L-stable, stiffly accurate; a step whose stage equations do not
+    converge is redone in halves (down to h / 4096). See :mod:`cable_sim.integrate.implicit.radau`.
+
+    Parameters
+    ----------
+    system : CableSystem
+    step : float
+        h [s].
+    newton_tol : float
+        The Newton iteration stops when every increment is at most
+        ``newton_tol (1 + |y_j|)`` (positions [m, rad], velocities [m/s, rad/s]); default 1e-8.
+    newton_maxit : int
+        Iterations before a step counts as not converging (then halved); default 10.
+    geometric_stiffness, predict_drag
+        See :class:`~cable_sim.integrate.implicit.ros34.Ros34PW2`.
+    max_drift, taut_slack, max_condition, compiled
+        See :class:`cable_sim.integrate.base.Integrator`.
+    """
+
+    name = "radau_iia"
+    order = 5
+    _fast_offsets = tuple(float(c) for c in OFFSETS)
+
+    def __init__(self, system: CableSystem, step: float = 1e-2, newton_tol: float = 1e-8,
+                 newton_maxit: int = 10, geometric_stiffness: bool = True,
+                 predict_drag: bool = True, **kwargs) -> None:
+        if not (np.isfinite(newton_tol) and 0.0 < newton_tol < 1.0):
+            raise ValueError(f"parameter 'newton_tol' = {newton_tol!r} is invalid; allowed: "
+                             "finite number in (0, 1)")
+        if int(newton_maxit) != newton_maxit or not 2 <= newton_maxit <= 100:
+            raise ValueError(f"parameter 'newton_maxit' = {newton_maxit!r} is invalid; allowed: "
+                             "integer in [2, 100]")
+        self.newton_tol = float(newton_tol)
+        self.newton_maxit = int(newton_maxit)
+        #: Newton iterations and failed (then halved) step attempts so far.
+        self.newton_iterations = 0
+        self.newton_failures = 0
+        self.geometric = bool(geometric_stiffness)
+        self.predict = bool(predict_drag)
+        super().__init__(system, step=step, **kwargs)
+
+    def _fast_kernel(self, arr, par, h, u, eta, y, chk, info) -> int:
+        ext = np.zeros(5)  # info and the Newton counters
+        ext[:3] = info[:3]
+        status = _radau_fixed_run(arr, par, self.geometric, self.predict, h, u, eta, y, chk, ext,
+                                  LAM1, LAM2, TI1, TI2, V1, V2, OFFSETS, self.newton_tol,
+                                  self.newton_maxit)
+        info[:3] = ext[:3]
+        self.newton_iterations += int(ext[3])
+        self.newton_failures += int(ext[4])
+        return status
+
+    def _step(self, t: float, y: np.ndarray, h: float) -> np.ndarray:
+        """One step of h: halves (recursively, down to h / 2^MAX_HALVINGS) where the stage
+        equations do not converge."""
+        hmin = h / 2 ** MAX_HALVINGS
+        t_end = t + h
+        hs = h
+        while True:
+            yn, its = _dense_radau_step(self.system, t, y, hs, self.geometric, self.predict,
+                                        self.newton_tol, self.newton_maxit)
+            self.newton_iterations += its
+            if yn is None:
+                self.newton_failures += 1
+                if hs <= hmin * (1.0 + 1e-9):
+                    raise IntegrationError(t, self._newton_reason(hs))
+                hs *= 0.5
+                continue
+            y = yn
+            t += hs
+            if t >= t_end - 1e-12 * h:
+                return y
+            hs = min(2.0 * hs, t_end - t)
+
+    def _newton_reason(self, hs: float) -> str:
+        return (f"Radau IIA stage equations did not converge within {self.newton_maxit} simplified "
+                f"Newton iterations even at the substep {hs:.3g} s (h / {2 ** MAX_HALVINGS}); the "
+                "state is most likely diverging (or 'newton_tol' is below what round-off allows): "
+                "reduce the step or raise 'newton_maxit'")
+
+    def _raise_status(self, status: int, t: float, value: float, y_last: np.ndarray | None = None) -> None:
+        if status == STATUS_NEWTON:
+            raise IntegrationError(t, self._newton_reason(value))
+        super()._raise_status(status, t, value, y_last)
+
+
+__all__ = ["A", "C", "LAM1", "LAM2", "OFFSETS", "TI1", "TI2", "V1", "V2", "RadauIIA"]

@@ -1,0 +1,323 @@
+"""The compiled step of three-stage Radau IIA on the O(n) operator (:func:`_radau_step`) and its
+fixed-step run with step halving where the stage equations do not converge
+(:func:`_radau_fixed_run`).
+
+The stage equations ``Z = h (A x I) F(y + Z)`` (``Z`` the three stage increments of
+``y = (q, v)``) are solved by simplified Newton in the eigenbasis of ``A^-1`` (Hairer & Wanner
+IV.8): with ``A^-1 = V diag(lambda) V^-1`` (one real eigenvalue ``lambda_1``, a complex pair
+``lambda_2``, its conjugate), ``W = V^-1 Z`` and ``G = V^-1 F``, each iteration solves
+
+    (I - hg_k T) dW_k = hg_k G_k - W_k,    hg_k = h / lambda_k,
+
+for ``k = 1`` (real) and ``k = 2`` (complex; ``k = 3`` is its conjugate), then
+``Z += V dW = v_1 dW_1 + 2 Re(v_2 dW_2)``. ``T`` is the W-methods' local operator
+(:mod:`cable_sim.integrate.implicit`): a system ``(I - hg T) s = (rq, rv)`` is
+``sv = rv - M~^-1 (hg D rv + hg K (rq + hg rv))``, ``sq = rq + hg sv`` with
+``M~ = M + hg D + hg^2 K`` -- one O(n) solve with a real ``hg`` and one with a complex ``hg``
+per iteration (the complex factorisation reads its geometry from the real one's workspace:
+:func:`cable_sim.integrate.implicit.op_factor._op_factor_trig`). Both are factored once per
+step, at the step's start, with the drag linearised at the predicted velocity ``v + h a``
+(``predict``) and the seabed contact over the step.
+
+Newton stops when the largest scaled increment ``|dZ_j| / (tol (1 + |y_j|))`` is at most 1;
+it fails on a non-finite value, on an increment that grows (``theta >= 1`` from the second
+iteration) or after ``maxit`` iterations. The fixed-step run then redoes the step as two
+halves (each factored with its own h, so that the drag is linearised at ``v + h_sub a``), down
+to ``h / 2^MAX_HALVINGS``; the halves' inputs come from the cubic through the step's four
+input samples (at 0, c_1, c_2, 1).
+
+Integrate layer: imports numba, numpy, :mod:`cable_sim.core.kernel` (checks, forward, links)
+and the sibling modules ``op_factor``, ``op_product``, ``op_solve``, ``run``.
+"""
+
+from __future__ import annotations
+
+import numba as nb
+import numpy as np
+
+from cable_sim.core.kernel.checks import STATUS_OK, STATUS_SINGULAR, check_packed_ws
+from cable_sim.core.kernel.forward import fd_packed_ws, fd_trig
+from cable_sim.core.kernel.links import link_trig
+from cable_sim.integrate.implicit.op_factor import _op_factor_trig
+from cable_sim.integrate.implicit.op_layout import _NS, _NW
+from cable_sim.integrate.implicit.op_product import _dk_product
+from cable_sim.integrate.implicit.op_solve import _op_solve
+from cable_sim.integrate.implicit.run import _factor_at, factor_workspace
+
+#: A step whose Newton iteration fails is halved at most this often (down to h / 4096).
+MAX_HALVINGS = 12
+#: Status of a fixed-step run whose stage equations did not converge even at h / 2^MAX_HALVINGS
+#: (``info[2]``: the smallest substep tried).
+STATUS_NEWTON = 101
+
+# results of one step attempt
+_STEP_OK, _STEP_NO_CONVERGENCE, _STEP_SINGULAR = 0, 1, 2
+
+
+@nb.njit(cache=True)
+def radau_workspace(n: int) -> tuple:
+    """Scratch of :func:`_radau_step` for n links: the real factorisation's
+    (:func:`cable_sim.integrate.implicit.run.factor_workspace`), the complex one's ``Wc, Sc,
+    Xc``, stage increments ``Zq, Zv`` (3, n+1), stage slopes ``Fq, Fv`` (3, n+1), real rows
+    (8, n+1) and complex rows (5, n+1)."""
+    n1 = n + 1
+    return (factor_workspace(n), np.zeros((_NW, n), dtype=np.complex128),
+            np.zeros(_NS, dtype=np.complex128), np.zeros((2, n1), dtype=np.complex128),
+            np.zeros((3, n1)), np.zeros((3, n1)), np.zeros((3, n1)), np.zeros((3, n1)),
+            np.zeros((8, max(n1, 2))), np.zeros((5, n1), dtype=np.complex128))
+
+
+@nb.njit(cache=True, inline="always")
+def _solve_real(arr: np.ndarray, par: np.ndarray, hg: float, W: np.ndarray, S: np.ndarray,
+                X: np.ndarray, rq: np.ndarray, rv: np.ndarray, rk: np.ndarray, rhs: np.ndarray,
+                x: np.ndarray) -> None:
+    """``(I - hg T) s = (rq, rv)`` in place: ``rv`` becomes ``sv``, ``rq`` becomes ``sq``."""
+    n1 = rq.shape[0]
+    for j in range(n1):
+        rk[j] = rq[j] + hg * rv[j]
+    _dk_product(arr, par, hg, W, W, rv, rk, rhs)
+    _op_solve(arr, par, W, W, S, X, rhs, x)
+    for j in range(n1):
+        rv[j] = rv[j] - x[j]
+        rq[j] = rq[j] + hg * rv[j]
+
+
+@nb.njit(cache=True, inline="always")
+def _solve_complex(arr: np.ndarray, par: np.ndarray, hg: complex, G: np.ndarray, W: np.ndarray,
+                   S: np.ndarray, X: np.ndarray, rq: np.ndarray, rv: np.ndarray, rk: np.ndarray,
+                   rhs: np.ndarray, x: np.ndarray) -> None:
+    """:func:`_solve_real` with a complex ``hg`` (``G``: the real factorisation's geometry)."""
+    n1 = rq.shape[0]
+    for j in range(n1):
+        rk[j] = rq[j] + hg * rv[j]
+    _dk_product(arr, par, hg, G, W, rv, rk, rhs)
+    _op_solve(arr, par, G, W, S, X, rhs, x)
+    for j in range(n1):
+        rv[j] = rv[j] - x[j]
+        rq[j] = rq[j] + hg * rv[j]
+
+
+@nb.njit(cache=True)
+def _radau_step(arr: np.ndarray, par: np.ndarray, geometric: bool, predict: bool, h: float,
+                us: np.ndarray, es: np.ndarray, y: np.ndarray, yn: np.ndarray, ws: tuple,
+                lam1: float, lam2: complex, ti1: np.ndarray, ti2: np.ndarray, v1: np.ndarray,
+                v2: np.ndarray, ctimes: np.ndarray, tol: float, maxit: int, info: np.ndarray,
+                ratio: float) -> int:
+    """One Radau IIA step of h from y into ``yn`` (``2(n+1)``); ``us[0], es[0]``: the inputs at
+    the step's start, ``us[1 + i], es[1 + i]`` at stage i. ``lam1, lam2``: the real and one
+    complex eigenvalue of ``A^-1``; ``ti1, ti2``: the matching rows of ``V^-1``; ``v1, v2``:
+    the columns of ``V``; ``ctimes``: the stage times (fractions of h). ``ratio`` > 0: the
+    stage increments in ``ws`` are those of the previous step, which ended at y and was
+    ``ratio`` times as long; the initial guess extrapolates its collocation polynomial
+    (Hairer & Wanner IV.8). Otherwise (0) the guess is the explicit Euler increments.
+    Returns ``_STEP_OK``, ``_STEP_NO_CONVERGENCE`` or ``_STEP_SINGULAR``; ``info[0]`` counts
+    the force evaluations, ``info[3]`` the Newton iterations."""
+    n1 = y.shape[0] // 2
+    fs, Wc, Sc, Xc, Zq, Zv, Fq, Fv, wk, cw = ws
+    fw, jw, F, kgeo, W, S, X = fs
+    acc = wk[0]
+    vp = wk[1]
+    rhs = wk[2]
+    x = wk[3]
+    rq = wk[4]
+    rv = wk[5]
+    rk = wk[6]
+    yq = wk[7]
+    lam = np.empty(2)
+    q = y[:n1]
+    v = y[n1:]
+    if not fd_packed_ws(arr, par, us[0], es[0], q, v, acc, lam, fw):
+        return _STEP_SINGULAR
+    info[0] += 1
+    for j in range(n1):
+        vp[j] = v[j] + h * acc[j] if predict else v[j]
+    hg1 = h / lam1
+    hg2 = h / lam2
+    if not _factor_at(arr, par, geometric, hg1, q, v, acc, lam, vp, fw, jw, F, kgeo, W, S, X, h):
+        return _STEP_SINGULAR
+    if not _op_factor_trig(arr, par, q, vp, hg2, kgeo, W, Wc, Sc, Xc, h):
+        return _STEP_SINGULAR
+    if ratio > 0.0:
+        _extrapolate(Zq, Zv, ctimes, 1.0 / ratio)
+    else:  # the explicit Euler increments to each stage time
+        for i in range(3):
+            c = ctimes[i] * h
+            for j in range(n1):
+                Zq[i, j] = c * v[j]
+                Zv[i, j] = c * acc[j]
+    crq = cw[0]
+    crv = cw[1]
+    crk = cw[2]
+    crhs = cw[3]
+    cx = cw[4]
+    prev = np.inf
+    for it in range(maxit):
+        info[3] += 1
+        for i in range(3):
+            for j in range(n1):
+                yq[j] = q[j] + Zq[i, j]
+                rv[j] = v[j] + Zv[i, j]
+            if not fd_packed_ws(arr, par, us[1 + i], es[1 + i], yq, rv, acc, lam, fw):
+                return _STEP_NO_CONVERGENCE  # a stage state the dynamics cannot take: not a fix
+            info[0] += 1
+            for j in range(n1):
+                Fq[i, j] = rv[j]
+                Fv[i, j] = acc[j]
+        # the real and the complex transformed systems' right-hand sides hg G - W
+        for j in range(n1):
+            gq = ti1[0] * Fq[0, j] + ti1[1] * Fq[1, j] + ti1[2] * Fq[2, j]
+            gv = ti1[0] * Fv[0, j] + ti1[1] * Fv[1, j] + ti1[2] * Fv[2, j]
+            wq = ti1[0] * Zq[0, j] + ti1[1] * Zq[1, j] + ti1[2] * Zq[2, j]
+            wv = ti1[0] * Zv[0, j] + ti1[1] * Zv[1, j] + ti1[2] * Zv[2, j]
+            rq[j] = hg1 * gq - wq
+            rv[j] = hg1 * gv - wv
+            cgq = ti2[0] * Fq[0, j] + ti2[1] * Fq[1, j] + ti2[2] * Fq[2, j]
+            cgv = ti2[0] * Fv[0, j] + ti2[1] * Fv[1, j] + ti2[2] * Fv[2, j]
+            cwq = ti2[0] * Zq[0, j] + ti2[1] * Zq[1, j] + ti2[2] * Zq[2, j]
+            cwv = ti2[0] * Zv[0, j] + ti2[1] * Zv[1, j] + ti2[2] * Zv[2, j]
+            crq[j] = hg2 * cgq - cwq
+            crv[j] = hg2 * cgv - cwv
+        _solve_real(arr, par, hg1, W, S, X, rq, rv, rk, rhs, x)
+        _solve_complex(arr, par, hg2, W, Wc, Sc, Xc, crq, crv, crk, crhs, cx)
+        # Z += V dW: v1 dW1 + 2 Re(v2 dW2), and the increment's scaled size
+        big = 0.0
+        for i in range(3):
+            a = v1[i]
+            b = 2.0 * v2[i]
+            for j in range(n1):
+                dq = a * rq[j] + (b * crq[j]).real
+                dv = a * rv[j] + (b * crv[j]).real
+                Zq[i, j] += dq
+                Zv[i, j] += dv
+                big = max(big, abs(dq) / (tol * (1.0 + abs(q[j]))),
+                          abs(dv) / (tol * (1.0 + abs(v[j]))))
+        if not np.isfinite(big):
+            return _STEP_NO_CONVERGENCE
+        if big <= 1.0:
+            for j in range(n1):
+                yn[j] = q[j] + Zq[2, j]  # stiffly accurate: the last stage is the solution
+                yn[n1 + j] = v[j] + Zv[2, j]
+            return _STEP_OK
+        if it > 0 and big >= prev:
+            return _STEP_NO_CONVERGENCE
+        prev = big
+    return _STEP_NO_CONVERGENCE
+
+
+@nb.njit(cache=True, inline="always")
+def _extrapolate(Zq: np.ndarray, Zv: np.ndarray, ctimes: np.ndarray, r: float) -> None:
+    """The previous step's collocation polynomial (through 0 and its stage increments ``Z_i`` at
+    ``c_i``, in units of its step) at the new step's stage times ``1 + r c_j`` (``r``: new step /
+    old step), less its end value ``Z_3``: the new stages' increments from the new state, in
+    place."""
+    nodes = np.empty(4)
+    nodes[0] = 0.0
+    nodes[1:] = ctimes
+    lag = np.empty((3, 3))  # lag[j, i]: the Lagrange weight of old stage i at new stage j
+    for j in range(3):
+        s = 1.0 + r * ctimes[j]
+        for i in range(3):
+            w = 1.0
+            for m in range(4):
+                if m != i + 1:
+                    w *= (s - nodes[m]) / (nodes[i + 1] - nodes[m])
+            lag[j, i] = w
+    for k in range(Zq.shape[1]):
+        a0, a1, a2 = Zq[0, k], Zq[1, k], Zq[2, k]
+        b0, b1, b2 = Zv[0, k], Zv[1, k], Zv[2, k]
+        for j in range(3):
+            Zq[j, k] = lag[j, 0] * a0 + lag[j, 1] * a1 + lag[j, 2] * a2 - a2
+            Zv[j, k] = lag[j, 0] * b0 + lag[j, 1] * b1 + lag[j, 2] * b2 - b2
+
+
+@nb.njit(cache=True, inline="always")
+def _cubic_input(s: float, nodes: np.ndarray, vals: np.ndarray) -> float:
+    """The cubic through ``(nodes[k], vals[k])``, k = 0..3, at s (Lagrange form)."""
+    out = 0.0
+    for k in range(4):
+        w = 1.0
+        for m in range(4):
+            if m != k:
+                w *= (s - nodes[m]) / (nodes[k] - nodes[m])
+        out += w * vals[k]
+    return out
+
+
+@nb.njit(cache=True)
+def _radau_fixed_run(arr: np.ndarray, par: np.ndarray, geometric: bool, predict: bool, h: float,
+                     u: np.ndarray, eta: np.ndarray, y: np.ndarray, chk: np.ndarray,
+                     info: np.ndarray, lam1: float, lam2: complex, ti1: np.ndarray,
+                     ti2: np.ndarray, v1: np.ndarray, v2: np.ndarray, offsets: np.ndarray,
+                     tol: float, maxit: int) -> int:
+    """``u.shape[0]`` checked steps of h, in place on y (``u[k], eta[k]``: the inputs at
+    ``offsets`` = (0, c_1, c_2, 1) of step k). A step whose Newton iteration fails is redone
+    in halves (see the module docstring); the check runs at the end of each step of h. On
+    failure ``y`` keeps the last good state, ``info[1]`` is the failed step's index;
+    ``STATUS_NEWTON`` with the smallest substep tried in ``info[2]``. ``info[0]`` counts the
+    force evaluations; with ``info.shape[0] > 4``, ``info[3]`` the Newton iterations and
+    ``info[4]`` the failed attempts."""
+    n = arr.shape[1]
+    n1 = n + 1
+    ws = radau_workspace(n)
+    cth, sth = fd_trig(ws[0][0], n)
+    ctimes = offsets[1:]
+    full = 1 << MAX_HALVINGS  # a step of h in units of its smallest substep
+    ys = np.empty(2 * n1)
+    yn = np.empty(2 * n1)
+    us = np.empty(4)
+    es = np.empty(4)
+    cnt = np.zeros(4)
+    hprev = 0.0  # the last accepted (sub)step, whose stages are in ws; 0: none usable
+    for k in range(u.shape[0]):
+        info[1] = k
+        for j in range(2 * n1):
+            ys[j] = y[j]
+        done = 0
+        size = full
+        while done < full:
+            hs = h * size / full
+            if size == full:
+                us[:] = u[k]
+                es[:] = eta[k]
+            else:
+                for i in range(4):
+                    s = (done + offsets[i] * size) / full
+                    us[i] = _cubic_input(s, offsets, u[k])
+                    es[i] = _cubic_input(s, offsets, eta[k])
+            ratio = hprev / hs if hprev > 0.0 else 0.0
+            res = _radau_step(arr, par, geometric, predict, hs, us, es, ys, yn, ws, lam1, lam2,
+                              ti1, ti2, v1, v2, ctimes, tol, maxit, cnt, ratio)
+            if res == _STEP_SINGULAR:
+                info[0] += cnt[0]
+                return STATUS_SINGULAR
+            if res == _STEP_OK:
+                for j in range(2 * n1):
+                    ys[j] = yn[j]
+                done += size
+                hprev = hs
+                size = min(2 * size, full - done)  # back towards h after a halving
+            else:
+                cnt[1] += 1
+                hprev = 0.0  # the failed attempt overwrote the stages
+                if size == 1:
+                    info[0] += cnt[0]
+                    info[2] = hs
+                    return STATUS_NEWTON
+                size //= 2
+        info[0] += cnt[0]
+        cnt[0] = 0.0
+        if info.shape[0] > 4:
+            info[3] += cnt[3]
+            info[4] += cnt[1]
+        cnt[1] = 0.0
+        cnt[3] = 0.0
+        if par[10] == 0.0:  # (anchored: the check's projection recomputes them)
+            link_trig(ys, cth, sth)
+        status = check_packed_ws(arr, par, ys, chk, info, cth, sth)
+        if status != STATUS_OK:
+            return status
+        y[:] = ys
+    return STATUS_OK
+
+
+__all__ = ["MAX_HALVINGS", "STATUS_NEWTON", "radau_workspace", "_radau_step", "_radau_fixed_run"]

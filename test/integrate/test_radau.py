@@ -1,0 +1,145 @@
+"""Radau IIA (``radau_iia``) on the O(n) operator: its coefficients, stability, order and
+failure handling.
+
+Independent of the code under test where they can be:
+
+* the coefficients satisfy the simplifying assumptions B(5) and C(3) (order 5, stage order 3)
+  written out here, and the eigenvalues of ``A^-1`` equal the constants of Hairer's RADAU5
+  (``3.6378342527444957``, ``2.6810828736277521 +- 3.0504301992474106 i``);
+* the stability function ``R(z) = 1 + z b^T (I - z A)^-1 1`` is within ``O(z^6)`` of
+  ``exp(z)``, bounded by 1 on the imaginary axis, and vanishes at ``-inf`` (L-stable);
+* the observed order on the drag-free smooth scene, against DOP853 at 1e-13, is 5 with each
+  end condition (the Morison scene of test_integrator_order.py has a kink of the drag at zero
+  relative velocity, which limits the observed order at the finest steps);
+* the n = 80 free fall at a step whose release the Newton iteration cannot take in one piece
+  (h = 0.125 s: steps are halved there, counted) stays accurate against DOP853 at 1e-11, and its
+  error falls by more than 4^3 at h / 4; a step that cannot converge at all fails loudly,
+  naming the iteration, on both paths.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from order_scenes import ENDS, SMOOTH
+
+from cable_sim.integrate import IntegrationError, ScipyIntegrator, make_integrator
+from cable_sim.integrate.implicit import radau
+from cable_sim.scene.scenes import load_scene
+
+HORIZON = 2.0
+#: Hairer's RADAU5 (radau5.f): u1 = 1 / 3.6378342527444957 ...; alph, beta of the complex pair.
+RADAU5_REAL = 3.6378342527444957
+RADAU5_COMPLEX = 2.6810828736277521 + 3.0504301992474106j
+
+
+def test_coefficients_order_conditions_and_eigenvalues() -> None:
+    a, c = radau.A, radau.C
+    b = a[2]  # stiffly accurate: the weights are the last row
+    assert np.allclose(a.sum(axis=1), c, rtol=0, atol=1e-15)
+    for k in range(1, 6):  # B(5): quadrature of order 5
+        assert abs(b @ c ** (k - 1) - 1.0 / k) < 1e-15
+    for k in range(1, 4):  # C(3): stage order 3
+        assert np.allclose(a @ c ** (k - 1), c ** k / k, rtol=0, atol=1e-15)
+    assert abs(b @ c ** 5 - 1.0 / 6.0) > 1e-4  # and not order 6
+    assert abs(radau.LAM1 - RADAU5_REAL) < 1e-12
+    assert abs(radau.LAM2 - RADAU5_COMPLEX) < 1e-12
+    # the eigenbasis the step uses reproduces A^-1 on any real vector
+    rng = np.random.default_rng(0)
+    ainv = np.linalg.inv(a)
+    for _ in range(3):
+        z = rng.normal(size=3)
+        w1, w2 = radau.TI1 @ z, radau.TI2 @ z
+        assert np.allclose(radau.V1 * w1 + 2.0 * (radau.V2 * w2).real, z, rtol=0, atol=1e-13)
+        back = radau.V1 * radau.LAM1 * w1 + 2.0 * (radau.V2 * radau.LAM2 * w2).real
+        assert np.allclose(back, ainv @ z, rtol=0, atol=1e-12)
+
+
+def _stability(z: complex) -> complex:
+    a = radau.A
+    return 1.0 + z * (a[2] @ np.linalg.solve(np.eye(3) - z * a, np.ones(3)))
+
+
+def test_stability_function_l_stable_and_order_five() -> None:
+    errs = [abs(_stability(z) - np.exp(z)) for z in (0.2, 0.1)]
+    assert 2 ** 5.5 < errs[0] / errs[1] < 2 ** 6.5  # R(z) - exp(z) = O(z^6)
+    assert max(abs(_stability(1j * y)) for y in np.logspace(-3, 4, 200)) <= 1.0 + 1e-12
+    assert abs(_stability(-1e8)) < 1e-7
+    assert all(abs(_stability(x)) < 1.0 for x in -np.logspace(-3, 6, 100))
+
+
+@pytest.fixture(scope="module")
+def drag_free() -> dict:
+    """The smooth scene without drag per end condition, and its DOP853 end state."""
+    out = {}
+    for end in ENDS:
+        scene = load_scene("paper_free_fall", {**SMOOTH, **ENDS[end], "anchor_x": 150.0,
+                                               "anchor_z": -150.0, "drag_model": "none"})
+        model = scene.model()
+        y0 = scene.initial_state(model)
+        ref = ScipyIntegrator(scene.system(model=model), "DOP853", rtol=1e-13, atol=1e-13)
+        out[end] = (scene, model, y0, ref.advance(0.0, y0, HORIZON))
+    return out
+
+
+@pytest.mark.parametrize("end", list(ENDS))
+def test_observed_order_five(drag_free, end: str) -> None:
+    scene, model, y0, y_ref = drag_free[end]
+    hs = np.array([0.25, 0.125, 0.0625])
+    errs = []
+    for h in hs:
+        integ = make_integrator("radau_iia", scene.system(model=model), float(h), newton_tol=1e-12)
+        errs.append(float(np.max(np.abs(integ.advance(0.0, y0, HORIZON) - y_ref))))
+    errs = np.array(errs)
+    slope = np.polyfit(np.log(hs), np.log(errs), 1)[0]
+    print(f"\nradau_iia {end}: errors {np.array2string(errs, precision=2)} -> order {slope:.2f}")
+    assert errs[-1] > 1e3 * 1e-13 * np.max(np.abs(y_ref))
+    assert abs(slope - 5.0) <= 0.5
+    assert np.all(np.diff(errs) < 0)
+
+
+def _free_fall(n: int):
+    scene = load_scene("paper_free_fall", {"kernel": "fast"}).with_links(n)
+    model = scene.model()
+    return scene, model, scene.initial_state(model)
+
+
+def test_release_is_halved_and_stays_accurate() -> None:
+    scene, model, y0 = _free_fall(80)
+    coarse = make_integrator("radau_iia", scene.system(model=model), 0.125)
+    y_c = coarse.advance(0.0, y0, 2.0)
+    assert coarse.newton_failures > 0  # the release needed halved steps
+    fine = make_integrator("radau_iia", scene.system(model=model), 0.125 / 4)
+    y_f = fine.advance(0.0, y0, 2.0)
+    ref = ScipyIntegrator(scene.system(model=model), "DOP853", rtol=1e-11, atol=1e-11)
+    y_r = ref.advance(0.0, y0, 2.0)
+    n1 = model.ndof
+    e_c = float(np.max(np.abs(y_c[:n1] - y_r[:n1])))
+    e_f = float(np.max(np.abs(y_f[:n1] - y_r[:n1])))
+    print(f"\nn=80 free fall, 2 s: h=0.125 error {e_c:.3g} ({coarse.newton_failures} halvings), "
+          f"h=0.03125 error {e_f:.3g}")
+    # order 5 would divide the error by 4^5 ~ 1000; the halved release costs some of that,
+    # not all: at least a factor 4^3
+    assert e_f < e_c / 4 ** 3
+    assert e_c < 1e-3  # rad / m over 2 s: the halved steps kept it accurate
+
+
+@pytest.mark.parametrize("compiled", [True, False])
+def test_no_convergence_fails_loudly(compiled: bool) -> None:
+    scene, model, y0 = _free_fall(8)
+    # a tolerance below round-off in two iterations: no step converges, every halving fails
+    integ = make_integrator("radau_iia", scene.system(model=model), 0.05, newton_tol=1e-18,
+                            newton_maxit=2, compiled=compiled)
+    before = y0.copy()
+    with pytest.raises(IntegrationError, match="did not converge"):
+        integ.advance(0.0, y0, 0.1)
+    assert np.array_equal(y0, before)
+    assert integ.newton_failures >= radau.MAX_HALVINGS
+
+
+@pytest.mark.parametrize(("name", "value"), [("newton_tol", 0.0), ("newton_tol", float("nan")),
+                                              ("newton_maxit", 1), ("newton_maxit", 2.5)])
+def test_bad_newton_settings_are_named(name: str, value: float) -> None:
+    scene, model, _ = _free_fall(4)
+    with pytest.raises(ValueError, match=f"parameter '{name}'"):
+        make_integrator("radau_iia", scene.system(model=model), 0.05, **{name: value})
