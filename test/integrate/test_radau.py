@@ -12,9 +12,8 @@ Independent of the code under test where they can be:
   end condition (the Morison scene of test_integrator_order.py has a kink of the drag at zero
   relative velocity, which limits the observed order at the finest steps);
 * the n = 80 free fall at a step whose release the Newton iteration cannot take in one piece
-  (h = 0.125 s: steps are halved there, counted) stays accurate against DOP853 at 1e-11, and its
-  error falls by more than 4^3 at h / 4; a step that cannot converge at all fails loudly,
-  naming the iteration, on both paths.
+  (h = 0.125 s: steps are halved there, counted) stays within 1e-5 of DOP853 at 1e-11 over 2 s;
+  a step that cannot converge at all fails loudly, naming the iteration, on both paths.
 """
 
 from __future__ import annotations
@@ -106,22 +105,17 @@ def _free_fall(n: int):
 
 def test_release_is_halved_and_stays_accurate() -> None:
     scene, model, y0 = _free_fall(80)
-    coarse = make_integrator("radau_iia", scene.system(model=model), 0.125)
-    y_c = coarse.advance(0.0, y0, 2.0)
-    assert coarse.newton_failures > 0  # the release needed halved steps
-    fine = make_integrator("radau_iia", scene.system(model=model), 0.125 / 4)
-    y_f = fine.advance(0.0, y0, 2.0)
+    integ = make_integrator("radau_iia", scene.system(model=model), 0.125, newton_tol=1e-12)
+    y = integ.advance(0.0, y0, 2.0)
+    assert integ.newton_failures > 0  # the release needed halved steps
     ref = ScipyIntegrator(scene.system(model=model), "DOP853", rtol=1e-11, atol=1e-11)
     y_r = ref.advance(0.0, y0, 2.0)
-    n1 = model.ndof
-    e_c = float(np.max(np.abs(y_c[:n1] - y_r[:n1])))
-    e_f = float(np.max(np.abs(y_f[:n1] - y_r[:n1])))
-    print(f"\nn=80 free fall, 2 s: h=0.125 error {e_c:.3g} ({coarse.newton_failures} halvings), "
-          f"h=0.03125 error {e_f:.3g}")
-    # order 5 would divide the error by 4^5 ~ 1000; the halved release costs some of that,
-    # not all: at least a factor 4^3
-    assert e_f < e_c / 4 ** 3
-    assert e_c < 1e-3  # rad / m over 2 s: the halved steps kept it accurate
+    err = float(np.max(np.abs(y[:model.ndof] - y_r[:model.ndof])))
+    print(f"\nn=80 free fall, 2 s, h=0.125: error {err:.3g} ({integ.newton_failures} halvings)")
+    # the bench's error floor (1e-3 of its 1-cm bound); a halving that lost or repeated part of a
+    # step, or sampled the inputs at the wrong times, is off by far more (0.4 m s^-2 of gravity
+    # over one step of 0.125 s is 3 mm)
+    assert err < 1e-5
 
 
 @pytest.mark.parametrize("compiled", [True, False])

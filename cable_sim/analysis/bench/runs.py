@@ -146,6 +146,10 @@ def compiled_stepper(integ) -> Callable | None:
         w2 = time.perf_counter()
         done = ns if status == 0 else int(info[1])
         integ.nsteps += done
+        # force evaluations as Integrator._run_fast counts them (a scheme without a fixed count,
+        # e.g. Radau IIA's Newton iteration, counts them in info[0])
+        fixed = getattr(integ, "_fast_fevals", None)
+        integ.system.nfev += int(info[0]) if fixed is None else fixed * done
         if status != 0:
             integ._raise_status(status, t0 + (done + 1) * h, float(info[2]), yc)
         return yc, w2 - w1, w1 - w0
@@ -229,8 +233,6 @@ def _run_fixed(run: Run, sc: Scene, t: np.ndarray, budget: float, compiled_timin
                           "compiled stepper, one call per 0.5 s, inputs sampled apart")
     if done is not None:
         run.nsteps = (len(t) - 1) * max(1, int(np.ceil(SAMPLE / integ.h - 1e-9)))
-        if stepper is not None:
-            run.nfev = run.nsteps * _fevals(integ)
     return done
 
 
@@ -290,14 +292,6 @@ def simulate(scene_name: str, n: int, integrator: str, setting: float, duration:
     run.t = t
     run.pos, run.tension = _outputs(sim, t, ys)
     return run
-
-
-def _fevals(integ) -> int:
-    """Force evaluations per step of a compiled scheme (its declared count, else its stages)."""
-    k = getattr(integ, "_fast_fevals", None)
-    if k:
-        return int(k)
-    return int(getattr(integ, "stages", len(getattr(integ, "_fast_offsets", ())) or 1))
 
 
 def midline(pos: np.ndarray) -> np.ndarray:

@@ -38,7 +38,14 @@ from cable_sim.integrate.base import Integrator
 from cable_sim.integrate.errors import IntegrationError
 from cable_sim.integrate.implicit.dense import _dense_solve, dense_operator
 from cable_sim.integrate.implicit.operator import geometric_stiffness as _geometric_stiffness
-from cable_sim.integrate.implicit.radau_step import MAX_HALVINGS, STATUS_NEWTON, _radau_fixed_run
+from cable_sim.integrate.implicit.radau_step import (
+    MAX_HALVINGS,
+    NEWTON_CONVERGED,
+    NEWTON_FAILED,
+    STATUS_NEWTON,
+    _radau_fixed_run,
+    newton_verdict,
+)
 
 _S6 = np.sqrt(6.0)
 #: Radau IIA (s = 3) coefficients (Hairer & Wanner IV.5, Table 5.6).
@@ -73,10 +80,12 @@ OFFSETS = np.concatenate([[0.0], C])
 
 
 def _dense_radau_step(system: CableSystem, t: float, y: np.ndarray, h: float, geometric: bool,
-                      predict: bool, tol: float, maxit: int) -> tuple[np.ndarray | None, int]:
+                      predict: bool, tol: float, maxit: int, newton: np.ndarray
+                      ) -> tuple[np.ndarray | None, int]:
     """One Radau IIA step with the dense ``M``, ``D``, ``K`` and the same Newton iteration as
     the compiled step from the explicit Euler guess (reference for it): the new state (None when
-    the iteration does not converge) and the iterations done."""
+    the iteration does not converge) and the iterations done. ``newton[0]``: the contraction
+    estimate carried from step to step (updated)."""
     model = system.model
     n1 = model.ndof
     q, v = y[:n1], y[n1:]
@@ -92,7 +101,8 @@ def _dense_radau_step(system: CableSystem, t: float, y: np.ndarray, h: float, ge
     Zv = np.outer(C * h, acc)
     scq = tol * (1.0 + np.abs(q))
     scv = tol * (1.0 + np.abs(v))
-    prev = np.inf
+    prev = 0.0
+    eta = max(float(newton[0]), 1e-16) ** 0.8
     for it in range(maxit):
         Fq = v + Zv
         Fv = np.empty_like(Zv)
@@ -110,11 +120,11 @@ def _dense_radau_step(system: CableSystem, t: float, y: np.ndarray, h: float, ge
         Zq += dq
         Zv += dv
         big = max(float(np.max(np.abs(dq) / scq)), float(np.max(np.abs(dv) / scv)))
-        if not np.isfinite(big):
-            return None, it + 1
-        if big <= 1.0:
+        verdict, eta = newton_verdict(it, big, prev, eta, maxit)
+        if verdict == NEWTON_CONVERGED:
+            newton[0] = eta
             return np.concatenate([q + Zq[2], v + Zv[2]]), it + 1
-        if it > 0 and big >= prev:
+        if verdict == NEWTON_FAILED:
             return None, it + 1
         prev = big
     return None, maxit
@@ -160,6 +170,7 @@ class RadauIIA(Integrator):
         #: Newton iterations and failed (then halved) step attempts so far.
         self.newton_iterations = 0
         self.newton_failures = 0
+        self._newton = np.ones(1)  # the Python path's contraction estimate (see radau_step)
         self.geometric = bool(geometric_stiffness)
         self.predict = bool(predict_drag)
         super().__init__(system, step=step, **kwargs)
@@ -183,7 +194,7 @@ class RadauIIA(Integrator):
         hs = h
         while True:
             yn, its = _dense_radau_step(self.system, t, y, hs, self.geometric, self.predict,
-                                        self.newton_tol, self.newton_maxit)
+                                        self.newton_tol, self.newton_maxit, self._newton)
             self.newton_iterations += its
             if yn is None:
                 self.newton_failures += 1

@@ -19,12 +19,15 @@ per iteration (the complex factorisation reads its geometry from the real one's 
 step, at the step's start, with the drag linearised at the predicted velocity ``v + h a``
 (``predict``) and the seabed contact over the step.
 
-Newton stops when the largest scaled increment ``|dZ_j| / (tol (1 + |y_j|))`` is at most 1;
-it fails on a non-finite value, on an increment that grows (``theta >= 1`` from the second
-iteration) or after ``maxit`` iterations. The fixed-step run then redoes the step as two
-halves (each factored with its own h, so that the drag is linearised at ``v + h_sub a``), down
-to ``h / 2^MAX_HALVINGS``; the halves' inputs come from the cubic through the step's four
-input samples (at 0, c_1, c_2, 1).
+Newton's increments are measured by the largest scaled entry ``|dZ_j| / (tol (1 + |y_j|))``;
+the iteration stops when that times ``theta / (1 - theta)`` (its contraction rate, of the
+previous step in the first iteration) is at most 1, and fails when the increments stop
+shrinking or cannot reach that in ``maxit`` iterations (:func:`newton_verdict`). The
+fixed-step run then redoes the step as two halves (each factored with its own h, so that the
+drag is linearised at ``v + h_sub a``), down to ``h / 2^MAX_HALVINGS``; the halves' inputs come
+from the cubic through the step's four input samples (at 0, c_1, c_2, 1). The first guess of
+the stage increments extrapolates the previous step's collocation polynomial (the explicit
+Euler increments after a failed attempt and at the start of a run).
 
 Integrate layer: imports numba, numpy, :mod:`cable_sim.core.kernel` (checks, forward, links)
 and the sibling modules ``op_factor``, ``op_product``, ``op_solve``, ``run``.
@@ -52,6 +55,35 @@ STATUS_NEWTON = 101
 
 # results of one step attempt
 _STEP_OK, _STEP_NO_CONVERGENCE, _STEP_SINGULAR = 0, 1, 2
+# verdicts of :func:`newton_verdict`
+NEWTON_GO_ON, NEWTON_CONVERGED, NEWTON_FAILED = 0, 1, 2
+#: A contraction this close to 1 counts as not converging.
+THETA_MAX = 0.99
+
+
+@nb.njit(cache=True)
+def newton_verdict(it: int, big: float, prev: float, eta: float, maxit: int) -> tuple[int, float]:
+    """Stopping rule of the simplified Newton iteration (Hairer & Wanner IV.8): after iteration
+    ``it`` (from 0) whose scaled increment is ``big`` (the previous one ``prev``), with the
+    contraction estimate ``eta = theta / (1 - theta)`` (of the previous step at ``it`` = 0):
+    converged when ``eta big <= 1`` (the estimated distance to the solution within the
+    tolerance); failed on a non-finite increment, on ``theta = big / prev >= THETA_MAX``, or
+    when ``theta^(maxit - 1 - it) / (1 - theta) big > 1`` (the iterations left cannot reach the
+    tolerance). Returns the verdict and the updated ``eta``."""
+    if not np.isfinite(big):
+        return NEWTON_FAILED, eta
+    if it > 0:
+        theta = big / prev
+        if theta >= THETA_MAX:
+            return NEWTON_FAILED, eta
+        if theta ** (maxit - 1 - it) / (1.0 - theta) * big > 1.0:
+            return NEWTON_FAILED, eta
+        eta = theta / (1.0 - theta)
+    if eta * big <= 1.0:
+        return NEWTON_CONVERGED, eta
+    if it == maxit - 1:
+        return NEWTON_FAILED, eta
+    return NEWTON_GO_ON, eta
 
 
 @nb.njit(cache=True)
@@ -102,7 +134,7 @@ def _radau_step(arr: np.ndarray, par: np.ndarray, geometric: bool, predict: bool
                 us: np.ndarray, es: np.ndarray, y: np.ndarray, yn: np.ndarray, ws: tuple,
                 lam1: float, lam2: complex, ti1: np.ndarray, ti2: np.ndarray, v1: np.ndarray,
                 v2: np.ndarray, ctimes: np.ndarray, tol: float, maxit: int, info: np.ndarray,
-                ratio: float) -> int:
+                ratio: float, newton: np.ndarray) -> int:
     """One Radau IIA step of h from y into ``yn`` (``2(n+1)``); ``us[0], es[0]``: the inputs at
     the step's start, ``us[1 + i], es[1 + i]`` at stage i. ``lam1, lam2``: the real and one
     complex eigenvalue of ``A^-1``; ``ti1, ti2``: the matching rows of ``V^-1``; ``v1, v2``:
@@ -110,8 +142,10 @@ def _radau_step(arr: np.ndarray, par: np.ndarray, geometric: bool, predict: bool
     stage increments in ``ws`` are those of the previous step, which ended at y and was
     ``ratio`` times as long; the initial guess extrapolates its collocation polynomial
     (Hairer & Wanner IV.8). Otherwise (0) the guess is the explicit Euler increments.
-    Returns ``_STEP_OK``, ``_STEP_NO_CONVERGENCE`` or ``_STEP_SINGULAR``; ``info[0]`` counts
-    the force evaluations, ``info[3]`` the Newton iterations."""
+    ``newton[0]``: the contraction estimate ``eta`` of the last converged iteration (updated;
+    :func:`newton_verdict`). Returns ``_STEP_OK``, ``_STEP_NO_CONVERGENCE`` or
+    ``_STEP_SINGULAR``; ``info[0]`` counts the force evaluations, ``info[3]`` the Newton
+    iterations."""
     n1 = y.shape[0] // 2
     fs, Wc, Sc, Xc, Zq, Zv, Fq, Fv, wk, cw = ws
     fw, jw, F, kgeo, W, S, X = fs
@@ -150,7 +184,9 @@ def _radau_step(arr: np.ndarray, par: np.ndarray, geometric: bool, predict: bool
     crk = cw[2]
     crhs = cw[3]
     cx = cw[4]
-    prev = np.inf
+    prev = 0.0
+    # the previous step's contraction, moved towards 1 (Hairer's RADAU5: eta^0.8)
+    eta = max(newton[0], 1e-16) ** 0.8
     for it in range(maxit):
         info[3] += 1
         for i in range(3):
@@ -191,14 +227,14 @@ def _radau_step(arr: np.ndarray, par: np.ndarray, geometric: bool, predict: bool
                 Zv[i, j] += dv
                 big = max(big, abs(dq) / (tol * (1.0 + abs(q[j]))),
                           abs(dv) / (tol * (1.0 + abs(v[j]))))
-        if not np.isfinite(big):
-            return _STEP_NO_CONVERGENCE
-        if big <= 1.0:
+        verdict, eta = newton_verdict(it, big, prev, eta, maxit)
+        if verdict == NEWTON_CONVERGED:
+            newton[0] = eta
             for j in range(n1):
                 yn[j] = q[j] + Zq[2, j]  # stiffly accurate: the last stage is the solution
                 yn[n1 + j] = v[j] + Zv[2, j]
             return _STEP_OK
-        if it > 0 and big >= prev:
+        if verdict == NEWTON_FAILED:
             return _STEP_NO_CONVERGENCE
         prev = big
     return _STEP_NO_CONVERGENCE
@@ -268,6 +304,7 @@ def _radau_fixed_run(arr: np.ndarray, par: np.ndarray, geometric: bool, predict:
     es = np.empty(4)
     cnt = np.zeros(4)
     hprev = 0.0  # the last accepted (sub)step, whose stages are in ws; 0: none usable
+    newton = np.ones(1)  # the contraction estimate eta carried from step to step
     for k in range(u.shape[0]):
         info[1] = k
         for j in range(2 * n1):
@@ -286,7 +323,7 @@ def _radau_fixed_run(arr: np.ndarray, par: np.ndarray, geometric: bool, predict:
                     es[i] = _cubic_input(s, offsets, eta[k])
             ratio = hprev / hs if hprev > 0.0 else 0.0
             res = _radau_step(arr, par, geometric, predict, hs, us, es, ys, yn, ws, lam1, lam2,
-                              ti1, ti2, v1, v2, ctimes, tol, maxit, cnt, ratio)
+                              ti1, ti2, v1, v2, ctimes, tol, maxit, cnt, ratio, newton)
             if res == _STEP_SINGULAR:
                 info[0] += cnt[0]
                 return STATUS_SINGULAR
@@ -320,4 +357,5 @@ def _radau_fixed_run(arr: np.ndarray, par: np.ndarray, geometric: bool, predict:
     return STATUS_OK
 
 
-__all__ = ["MAX_HALVINGS", "STATUS_NEWTON", "radau_workspace", "_radau_step", "_radau_fixed_run"]
+__all__ = ["MAX_HALVINGS", "NEWTON_CONVERGED", "NEWTON_FAILED", "NEWTON_GO_ON", "STATUS_NEWTON",
+           "THETA_MAX", "newton_verdict", "radau_workspace", "_radau_step", "_radau_fixed_run"]
