@@ -30,8 +30,8 @@ needs_mujoco = pytest.mark.skipif(not HAS_MUJOCO,
                                   reason="mujoco not importable (optional: pip install mujoco)")
 
 WP_COLUMNS = {"scene", "n", "kernel", "integrator", "kind", "step", "rtol", "duration", "status", "wall",
-              "wall_inputs", "cost", "rtf", "rtf_incl_inputs", "us_per_step", "nfev", "error_m",
-              "reference", "ref_err_est", "timing"}
+              "wall_inputs", "cost", "rtf", "rtf_incl_inputs", "us_per_step", "nfev", "halved",
+              "error_m", "reference", "ref_err_est", "timing"}
 MJ_COLUMNS = {"engine", "integrator", "n", "step", "duration", "status", "repeats", "wall", "rtf",
               "us_per_step", "us_per_step_python_loop", "speed_vs_mujoco_rk4", "error_m"}
 
@@ -83,16 +83,22 @@ def test_bench_picks_up_every_integrator():
 
 @pytest.mark.parametrize("scene,integ", [("paper_anchored_forced", "rk4"),
                                          ("paper_anchored_forced", "rosenbrock2"),
-                                         ("paper_free_fall", "symplectic_euler")])
+                                         ("paper_free_fall", "symplectic_euler"),
+                                         ("paper_free_fall", "radau_iia")])
 def test_timed_path_equals_advance(scene, integ):
     if bench.pick_kernel()[0] != "fast" or integ not in bench.available_integrators():
         pytest.skip("no compiled stepper here")
-    a = bench.simulate(scene, 6, integ, 0.0125, 1.0, compiled_timing=True)
-    b = bench.simulate(scene, 6, integ, 0.0125, 1.0, compiled_timing=False)
+    # (Radau IIA halves steps in the release of the free fall at n = 80: both paths count them)
+    n, h = (80, 0.125) if integ == "radau_iia" else (6, 0.0125)
+    a = bench.simulate(scene, n, integ, h, 1.0, compiled_timing=True)
+    b = bench.simulate(scene, n, integ, h, 1.0, compiled_timing=False)
     assert a.ok and b.ok
     assert a.timing.startswith("compiled") and b.timing.startswith("Integrator.advance")
     np.testing.assert_array_equal(a.pos, b.pos)  # same kernel, same steps, same inputs
     assert a.wall > 0 and a.wall_inputs > 0
+    assert a.nfev == b.nfev > 0 and a.halved == b.halved  # counted alike on both paths
+    if integ == "radau_iia":
+        assert a.halved > 0
 
 
 @pytest.mark.parametrize("scene,integ,tol", [("paper_free_fall", "tsit5", 1e-6),

@@ -8,7 +8,7 @@ from __future__ import annotations
 import csv
 
 _RESUMABLE = ("ok", "failed", "skipped: projected", "skipped: over budget")
-_INT_COLS = ("n", "nfev")
+_INT_COLS = ("n", "nfev", "halved")
 _STR_COLS = ("scene", "kernel", "integrator", "kind", "status", "reference", "timing", "source")
 
 

@@ -69,6 +69,8 @@ class Run:
     wall_inputs: float = 0.0
     nsteps: int = 0
     nfev: int = 0
+    #: Step attempts redone in halves (Radau IIA where its Newton iteration did not converge).
+    halved: int = 0
     timing: str = ""
     t: np.ndarray = field(default_factory=lambda: np.zeros(0))
     pos: np.ndarray = field(default_factory=lambda: np.zeros((0, 0, 2)))
@@ -245,6 +247,7 @@ def _run_intervals(run: Run, sim: Simulation, integ, stepper: Callable | None, t
     nout = len(t) - 1
     run.timing = timing if stepper else "Integrator.advance per 0.5 s"
     nfev0, nsteps0 = sim.system.nfev, integ.nsteps
+    halved0 = getattr(integ, "newton_failures", 0)
     ys = np.empty((nout + 1, sim.y0.size))
     ys[0] = y = sim.y0
     wall = wall_in = 0.0
@@ -268,6 +271,7 @@ def _run_intervals(run: Run, sim: Simulation, integ, stepper: Callable | None, t
     run.wall, run.wall_inputs = wall, wall_in
     run.nsteps = integ.nsteps - nsteps0
     run.nfev = sim.system.nfev - nfev0
+    run.halved = getattr(integ, "newton_failures", 0) - halved0
     return sim, ys
 
 

@@ -82,6 +82,10 @@ def _step_target(wp: list[dict], n: int, goal: float) -> dict:
     stable = [r for r in wp if r["scene"] == "paper_free_fall" and r["n"] == n and r["kind"] == "fixed"
               and r["status"] == "ok"]
     big = max(stable, key=lambda r: r["step"])
+    halved = int(b.get("halved", 0) or 0)
+    if halved:  # say that the fixed step was not kept everywhere
+        ties = [f"{t} ({halved} step attempts halved where its Newton iteration did not converge)"
+                if t == b["integrator"] else t for t in ties]
     detail = (f"{', '.join(ties)} (error {b['error_m']:.3g} m, RTF {b['rtf']:.4g}); largest stable "
               f"step of the ladder {big['step']:g} s ({big['integrator']}, error {big['error_m']:.3g} m)")
     return _row(target, b["step"], f">= {goal:g}", detail + _adaptive_mean_step(wp, n),

@@ -29,7 +29,7 @@ def _row(r: Run, adaptive: bool, ref: Run, desc: str, ref_err: float) -> dict:
                 cost=r.cost, rtf=1.0 / r.cost,
                 rtf_incl_inputs=dur / (r.wall + r.wall_inputs),
                 us_per_step=1e6 * r.wall / nst if (r.ok and nst) else float("nan"),
-                nfev=r.nfev if r.ok else 0,
+                nfev=r.nfev if r.ok else 0, halved=r.halved if r.ok else 0,
                 mean_step=dur / r.nsteps if (r.ok and r.nsteps) else float("nan"),
                 error_m=error(r, ref) if r.ok else float("nan"),
                 reference=desc, ref_err_est=ref_err, timing=r.timing, source="this run")

@@ -142,10 +142,13 @@ class RadauIIA(Integrator):
     step : float
         h [s].
     newton_tol : float
-        The Newton iteration stops when every increment is at most
-        ``newton_tol (1 + |y_j|)`` (positions [m, rad], velocities [m/s, rad/s]); default 1e-8.
+        The Newton iteration stops when its estimated distance to the solution (the last
+        increment times ``theta / (1 - theta)``, ``theta`` its contraction) is at most
+        ``newton_tol (1 + |y_j|)`` in every entry (positions [m, rad], velocities [m/s, rad/s]);
+        default 1e-8.
     newton_maxit : int
-        Iterations before a step counts as not converging (then halved); default 10.
+        Iterations after which a step counts as not converging (then halved; also earlier when
+        the increments stop shrinking or cannot reach the tolerance in time); default 10.
     geometric_stiffness, predict_drag
         See :class:`~cable_sim.integrate.implicit.ros34.Ros34PW2`.
     max_drift, taut_slack, max_condition, compiled
@@ -209,10 +212,10 @@ class RadauIIA(Integrator):
             hs = min(2.0 * hs, t_end - t)
 
     def _newton_reason(self, hs: float) -> str:
-        return (f"Radau IIA stage equations did not converge within {self.newton_maxit} simplified "
-                f"Newton iterations even at the substep {hs:.3g} s (h / {2 ** MAX_HALVINGS}); the "
-                "state is most likely diverging (or 'newton_tol' is below what round-off allows): "
-                "reduce the step or raise 'newton_maxit'")
+        return (f"Radau IIA stage equations did not converge (simplified Newton, at most "
+                f"{self.newton_maxit} iterations) even at the substep {hs:.3g} s "
+                f"(h / {2 ** MAX_HALVINGS}); the state is most likely diverging (or 'newton_tol' "
+                "is below what round-off allows): reduce the step or raise 'newton_maxit'")
 
     def _raise_status(self, status: int, t: float, value: float, y_last: np.ndarray | None = None) -> None:
         if status == STATUS_NEWTON:
