@@ -100,25 +100,12 @@ def radau_workspace(n: int) -> tuple:
 
 
 @nb.njit(cache=True, inline="always")
-def _solve_real(arr: np.ndarray, par: np.ndarray, hg: float, W: np.ndarray, S: np.ndarray,
-                X: np.ndarray, rq: np.ndarray, rv: np.ndarray, rk: np.ndarray, rhs: np.ndarray,
-                x: np.ndarray) -> None:
-    """``(I - hg T) s = (rq, rv)`` in place: ``rv`` becomes ``sv``, ``rq`` becomes ``sq``."""
-    n1 = rq.shape[0]
-    for j in range(n1):
-        rk[j] = rq[j] + hg * rv[j]
-    _dk_product(arr, par, hg, W, W, rv, rk, rhs)
-    _op_solve(arr, par, W, W, S, X, rhs, x)
-    for j in range(n1):
-        rv[j] = rv[j] - x[j]
-        rq[j] = rq[j] + hg * rv[j]
-
-
-@nb.njit(cache=True, inline="always")
-def _solve_complex(arr: np.ndarray, par: np.ndarray, hg: complex, G: np.ndarray, W: np.ndarray,
+def _solve_shifted(arr: np.ndarray, par: np.ndarray, hg: complex, G: np.ndarray, W: np.ndarray,
                    S: np.ndarray, X: np.ndarray, rq: np.ndarray, rv: np.ndarray, rk: np.ndarray,
                    rhs: np.ndarray, x: np.ndarray) -> None:
-    """:func:`_solve_real` with a complex ``hg`` (``G``: the real factorisation's geometry)."""
+    """``(I - hg T) s = (rq, rv)`` in place (``rv`` becomes ``sv``, ``rq`` becomes ``sq``) with a
+    factorisation W, S, X at ``hg``: real (``G is W``) or complex (``G``: the real
+    factorisation's geometry rows; compiled once per kind)."""
     n1 = rq.shape[0]
     for j in range(n1):
         rk[j] = rq[j] + hg * rv[j]
@@ -213,8 +200,8 @@ def _radau_step(arr: np.ndarray, par: np.ndarray, geometric: bool, predict: bool
             cwv = ti2[0] * Zv[0, j] + ti2[1] * Zv[1, j] + ti2[2] * Zv[2, j]
             crq[j] = hg2 * cgq - cwq
             crv[j] = hg2 * cgv - cwv
-        _solve_real(arr, par, hg1, W, S, X, rq, rv, rk, rhs, x)
-        _solve_complex(arr, par, hg2, W, Wc, Sc, Xc, crq, crv, crk, crhs, cx)
+        _solve_shifted(arr, par, hg1, W, W, S, X, rq, rv, rk, rhs, x)
+        _solve_shifted(arr, par, hg2, W, Wc, Sc, Xc, crq, crv, crk, crhs, cx)
         # Z += V dW: v1 dW1 + 2 Re(v2 dW2), and the increment's scaled size
         big = 0.0
         for i in range(3):
