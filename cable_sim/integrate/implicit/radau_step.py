@@ -100,6 +100,15 @@ def radau_workspace(n: int) -> tuple:
 
 
 @nb.njit(cache=True, inline="always")
+def _transformed_rhs(ti: np.ndarray, hg: complex, F: np.ndarray, Z: np.ndarray, j: int) -> complex:
+    """Entry j of one transformed system's right-hand side ``hg (V^-1 F)_k - (V^-1 Z)_k`` (``ti``:
+    row k of ``V^-1``; real or complex)."""
+    g = ti[0] * F[0, j] + ti[1] * F[1, j] + ti[2] * F[2, j]
+    w = ti[0] * Z[0, j] + ti[1] * Z[1, j] + ti[2] * Z[2, j]
+    return hg * g - w
+
+
+@nb.njit(cache=True, inline="always")
 def _solve_shifted(arr: np.ndarray, par: np.ndarray, hg: complex, G: np.ndarray, W: np.ndarray,
                    S: np.ndarray, X: np.ndarray, rq: np.ndarray, rv: np.ndarray, rk: np.ndarray,
                    rhs: np.ndarray, x: np.ndarray) -> None:
@@ -188,18 +197,10 @@ def _radau_step(arr: np.ndarray, par: np.ndarray, geometric: bool, predict: bool
                 Fv[i, j] = acc[j]
         # the real and the complex transformed systems' right-hand sides hg G - W
         for j in range(n1):
-            gq = ti1[0] * Fq[0, j] + ti1[1] * Fq[1, j] + ti1[2] * Fq[2, j]
-            gv = ti1[0] * Fv[0, j] + ti1[1] * Fv[1, j] + ti1[2] * Fv[2, j]
-            wq = ti1[0] * Zq[0, j] + ti1[1] * Zq[1, j] + ti1[2] * Zq[2, j]
-            wv = ti1[0] * Zv[0, j] + ti1[1] * Zv[1, j] + ti1[2] * Zv[2, j]
-            rq[j] = hg1 * gq - wq
-            rv[j] = hg1 * gv - wv
-            cgq = ti2[0] * Fq[0, j] + ti2[1] * Fq[1, j] + ti2[2] * Fq[2, j]
-            cgv = ti2[0] * Fv[0, j] + ti2[1] * Fv[1, j] + ti2[2] * Fv[2, j]
-            cwq = ti2[0] * Zq[0, j] + ti2[1] * Zq[1, j] + ti2[2] * Zq[2, j]
-            cwv = ti2[0] * Zv[0, j] + ti2[1] * Zv[1, j] + ti2[2] * Zv[2, j]
-            crq[j] = hg2 * cgq - cwq
-            crv[j] = hg2 * cgv - cwv
+            rq[j] = _transformed_rhs(ti1, hg1, Fq, Zq, j)
+            rv[j] = _transformed_rhs(ti1, hg1, Fv, Zv, j)
+            crq[j] = _transformed_rhs(ti2, hg2, Fq, Zq, j)
+            crv[j] = _transformed_rhs(ti2, hg2, Fv, Zv, j)
         _solve_shifted(arr, par, hg1, W, W, S, X, rq, rv, rk, rhs, x)
         _solve_shifted(arr, par, hg2, W, Wc, Sc, Xc, crq, crv, crk, crhs, cx)
         # Z += V dW: v1 dW1 + 2 Re(v2 dW2), and the increment's scaled size
