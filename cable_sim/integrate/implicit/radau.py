@@ -179,7 +179,7 @@ class RadauIIA(Integrator):
         super().__init__(system, step=step, **kwargs)
 
     def _fast_kernel(self, arr, par, h, u, eta, y, chk, info) -> int:
-        ext = np.zeros(5)  # info and the Newton counters
+        ext = np.zeros(5)  # info and the Newton counters (see _radau_fixed_run)
         ext[:3] = info[:3]
         status = _radau_fixed_run(arr, par, self.geometric, self.predict, h, u, eta, y, chk, ext,
                                   LAM1, LAM2, TI1, TI2, V1, V2, OFFSETS, self.newton_tol,

@@ -129,19 +129,19 @@ def _solve_shifted(arr: np.ndarray, par: np.ndarray, hg: complex, G: np.ndarray,
 def _radau_step(arr: np.ndarray, par: np.ndarray, geometric: bool, predict: bool, h: float,
                 us: np.ndarray, es: np.ndarray, y: np.ndarray, yn: np.ndarray, ws: tuple,
                 lam1: float, lam2: complex, ti1: np.ndarray, ti2: np.ndarray, v1: np.ndarray,
-                v2: np.ndarray, ctimes: np.ndarray, tol: float, maxit: int, info: np.ndarray,
+                v2: np.ndarray, offsets: np.ndarray, tol: float, maxit: int, info: np.ndarray,
                 ratio: float, newton: np.ndarray) -> int:
     """One Radau IIA step of h from y into ``yn`` (``2(n+1)``); ``us[0], es[0]``: the inputs at
     the step's start, ``us[1 + i], es[1 + i]`` at stage i. ``lam1, lam2``: the real and one
     complex eigenvalue of ``A^-1``; ``ti1, ti2``: the matching rows of ``V^-1``; ``v1, v2``:
-    the columns of ``V``; ``ctimes``: the stage times (fractions of h). ``ratio`` > 0: the
+    the columns of ``V``; ``offsets``: 0 and the stage times (fractions of h). ``ratio`` > 0: the
     stage increments in ``ws`` are those of the previous step, which ended at y and was
     ``ratio`` times as long; the initial guess extrapolates its collocation polynomial
     (Hairer & Wanner IV.8). Otherwise (0) the guess is the explicit Euler increments.
     ``newton[0]``: the contraction estimate ``eta`` of the last converged iteration (updated;
     :func:`newton_verdict`). Returns ``_STEP_OK``, ``_STEP_NO_CONVERGENCE`` or
     ``_STEP_SINGULAR``; ``info[0]`` counts the force evaluations, ``info[3]`` the Newton
-    iterations."""
+    iterations (``info`` as in :func:`_radau_fixed_run`)."""
     n1 = y.shape[0] // 2
     fs, Wc, Sc, Xc, Zq, Zv, Fq, Fv, wk, cw = ws
     fw, jw, F, kgeo, W, S, X = fs
@@ -168,10 +168,10 @@ def _radau_step(arr: np.ndarray, par: np.ndarray, geometric: bool, predict: bool
     if not _op_factor_trig(arr, par, q, vp, hg2, kgeo, W, Wc, Sc, Xc, h):
         return _STEP_SINGULAR
     if ratio > 0.0:
-        _extrapolate(Zq, Zv, ctimes, 1.0 / ratio)
+        _extrapolate(Zq, Zv, offsets, 1.0 / ratio)
     else:  # the explicit Euler increments to each stage time
         for i in range(3):
-            c = ctimes[i] * h
+            c = offsets[i + 1] * h
             for j in range(n1):
                 Zq[i, j] = c * v[j]
                 Zv[i, j] = c * acc[j]
@@ -229,23 +229,25 @@ def _radau_step(arr: np.ndarray, par: np.ndarray, geometric: bool, predict: bool
 
 
 @nb.njit(cache=True, inline="always")
-def _extrapolate(Zq: np.ndarray, Zv: np.ndarray, ctimes: np.ndarray, r: float) -> None:
+def _lagrange_weight(s: float, nodes: np.ndarray, k: int) -> float:
+    """The Lagrange basis polynomial of node k of the four ``nodes`` at s."""
+    w = 1.0
+    for m in range(4):
+        if m != k:
+            w *= (s - nodes[m]) / (nodes[k] - nodes[m])
+    return w
+
+
+@nb.njit(cache=True, inline="always")
+def _extrapolate(Zq: np.ndarray, Zv: np.ndarray, offsets: np.ndarray, r: float) -> None:
     """The previous step's collocation polynomial (through 0 and its stage increments ``Z_i`` at
-    ``c_i``, in units of its step) at the new step's stage times ``1 + r c_j`` (``r``: new step /
-    old step), less its end value ``Z_3``: the new stages' increments from the new state, in
-    place."""
-    nodes = np.empty(4)
-    nodes[0] = 0.0
-    nodes[1:] = ctimes
+    ``c_i``, in units of its step; ``offsets`` = (0, c_1, c_2, c_3)) at the new step's stage
+    times ``1 + r c_j`` (``r``: new step / old step), less its end value ``Z_3``: the new stages'
+    increments from the new state, in place."""
     lag = np.empty((3, 3))  # lag[j, i]: the Lagrange weight of old stage i at new stage j
     for j in range(3):
-        s = 1.0 + r * ctimes[j]
         for i in range(3):
-            w = 1.0
-            for m in range(4):
-                if m != i + 1:
-                    w *= (s - nodes[m]) / (nodes[i + 1] - nodes[m])
-            lag[j, i] = w
+            lag[j, i] = _lagrange_weight(1.0 + r * offsets[j + 1], offsets, i + 1)
     for k in range(Zq.shape[1]):
         a0, a1, a2 = Zq[0, k], Zq[1, k], Zq[2, k]
         b0, b1, b2 = Zv[0, k], Zv[1, k], Zv[2, k]
@@ -259,11 +261,7 @@ def _cubic_input(s: float, nodes: np.ndarray, vals: np.ndarray) -> float:
     """The cubic through ``(nodes[k], vals[k])``, k = 0..3, at s (Lagrange form)."""
     out = 0.0
     for k in range(4):
-        w = 1.0
-        for m in range(4):
-            if m != k:
-                w *= (s - nodes[m]) / (nodes[k] - nodes[m])
-        out += w * vals[k]
+        out += _lagrange_weight(s, nodes, k) * vals[k]
     return out
 
 
@@ -277,20 +275,18 @@ def _radau_fixed_run(arr: np.ndarray, par: np.ndarray, geometric: bool, predict:
     ``offsets`` = (0, c_1, c_2, 1) of step k). A step whose Newton iteration fails is redone
     in halves (see the module docstring); the check runs at the end of each step of h. On
     failure ``y`` keeps the last good state, ``info[1]`` is the failed step's index;
-    ``STATUS_NEWTON`` with the smallest substep tried in ``info[2]``. ``info[0]`` counts the
-    force evaluations; with ``info.shape[0] > 4``, ``info[3]`` the Newton iterations and
-    ``info[4]`` the failed attempts."""
+    ``STATUS_NEWTON`` with the smallest substep tried in ``info[2]``. ``info`` has five entries:
+    ``info[0]`` counts the force evaluations, ``info[3]`` the Newton iterations and ``info[4]``
+    the failed attempts."""
     n = arr.shape[1]
     n1 = n + 1
     ws = radau_workspace(n)
     cth, sth = fd_trig(ws[0][0], n)
-    ctimes = offsets[1:]
     full = 1 << MAX_HALVINGS  # a step of h in units of its smallest substep
     ys = np.empty(2 * n1)
     yn = np.empty(2 * n1)
     us = np.empty(4)
     es = np.empty(4)
-    cnt = np.zeros(4)
     hprev = 0.0  # the last accepted (sub)step, whose stages are in ws; 0: none usable
     newton = np.ones(1)  # the contraction estimate eta carried from step to step
     for k in range(u.shape[0]):
@@ -311,9 +307,8 @@ def _radau_fixed_run(arr: np.ndarray, par: np.ndarray, geometric: bool, predict:
                     es[i] = _cubic_input(s, offsets, eta[k])
             ratio = hprev / hs if hprev > 0.0 else 0.0
             res = _radau_step(arr, par, geometric, predict, hs, us, es, ys, yn, ws, lam1, lam2,
-                              ti1, ti2, v1, v2, ctimes, tol, maxit, cnt, ratio, newton)
+                              ti1, ti2, v1, v2, offsets, tol, maxit, info, ratio, newton)
             if res == _STEP_SINGULAR:
-                info[0] += cnt[0]
                 return STATUS_SINGULAR
             if res == _STEP_OK:
                 for j in range(2 * n1):
@@ -322,20 +317,12 @@ def _radau_fixed_run(arr: np.ndarray, par: np.ndarray, geometric: bool, predict:
                 hprev = hs
                 size = min(2 * size, full - done)  # back towards h after a halving
             else:
-                cnt[1] += 1
+                info[4] += 1
                 hprev = 0.0  # the failed attempt overwrote the stages
                 if size == 1:
-                    info[0] += cnt[0]
                     info[2] = hs
                     return STATUS_NEWTON
                 size //= 2
-        info[0] += cnt[0]
-        cnt[0] = 0.0
-        if info.shape[0] > 4:
-            info[3] += cnt[3]
-            info[4] += cnt[1]
-        cnt[1] = 0.0
-        cnt[3] = 0.0
         if par[10] == 0.0:  # (anchored: the check's projection recomputes them)
             link_trig(ys, cth, sth)
         status = check_packed_ws(arr, par, ys, chk, info, cth, sth)
