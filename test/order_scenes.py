@@ -1,7 +1,8 @@
 """The smooth scene of the observed-order tests (test/integrate/test_integrator_order.py,
-test/integrate/test_ros34.py, test_ros34prw.py): n = 10, Morison drag, released at 60 degrees
-under a sine heave force, with each end condition; its DOP853 reference (computed once per test
-session) and the joint-position error the tests compare with."""
+test/integrate/test_ros34.py, test_ros34prw.py, test_radau.py): n = 10, Morison drag, released at
+60 degrees under a sine heave force, with each end condition; its DOP853 reference (computed once per test
+session), the joint-position error the tests compare with, and a scheme's observed order over a
+step ladder."""
 
 from __future__ import annotations
 
@@ -11,7 +12,7 @@ import numpy as np
 
 from cable_sim.core import dynamics
 from cable_sim.core.model import CableModel
-from cable_sim.integrate import ScipyIntegrator
+from cable_sim.integrate import ScipyIntegrator, make_integrator
 from cable_sim.scene.scenes import Scene, load_scene
 
 SMOOTH = dict(
@@ -26,9 +27,11 @@ ENDS = {
 }
 
 
-def order_scene(end: str) -> Scene:
-    """The smooth scene with end condition ``end`` (a key of :data:`ENDS`)."""
-    return load_scene("paper_free_fall", {**SMOOTH, **ENDS[end], "anchor_x": 150.0, "anchor_z": -150.0})
+def order_scene(end: str, **overrides) -> Scene:
+    """The smooth scene with end condition ``end`` (a key of :data:`ENDS`) and further scene
+    parameters ``overrides`` (e.g. ``drag_model="none"``)."""
+    return load_scene("paper_free_fall", {**SMOOTH, **ENDS[end], "anchor_x": 150.0, "anchor_z": -150.0,
+                                          **overrides})
 
 
 def order_case(end: str) -> tuple[Scene, CableModel, np.ndarray]:
@@ -45,6 +48,19 @@ def dop853_reference(end: str, horizon: float) -> np.ndarray:
     scene, model, y0 = order_case(end)
     ref = ScipyIntegrator(scene.system(model=model), "DOP853", rtol=1e-13, atol=1e-13)
     return ref.advance(0.0, y0, horizon)
+
+
+def observed_order(name: str, scene: Scene, model: CableModel, y0: np.ndarray, y_ref: np.ndarray,
+                   hs: np.ndarray, horizon: float, **kwargs) -> tuple[np.ndarray, float]:
+    """Errors of integrator ``name`` (``kwargs`` to :func:`make_integrator`) at ``horizon`` against
+    the end state ``y_ref`` (max over the state's entries) for each step of ``hs``, and the slope
+    of log(error) against log(h)."""
+    errs = []
+    for h in hs:
+        integ = make_integrator(name, scene.system(model=model), float(h), **kwargs)
+        errs.append(float(np.max(np.abs(integ.advance(0.0, y0, horizon) - y_ref))))
+    errs = np.array(errs)
+    return errs, float(np.polyfit(np.log(hs), np.log(errs), 1)[0])
 
 
 def max_joint_position_error(model: CableModel, ys, ys_ref) -> float:

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from order_scenes import ENDS, order_scene
+from order_scenes import ENDS, observed_order, order_scene
 
 from cable_sim.core import dynamics
 from cable_sim.core.dynamics import Inputs
@@ -76,12 +76,7 @@ def test_observed_order_matches_stated_order(references, name: str, end: str) ->
     order = make_integrator(name, scene.system(model=model), 0.01).order
     assert order in STEPS, f"{name}: no step ladder for order {order}"
     hs = np.array(STEPS_BY_NAME.get(name, STEPS[order]))
-    errs = []
-    for h in hs:
-        integ = make_integrator(name, scene.system(model=model), float(h))
-        errs.append(float(np.max(np.abs(integ.advance(0.0, y0, HORIZON) - y_ref))))
-    errs = np.array(errs)
-    slope = np.polyfit(np.log(hs), np.log(errs), 1)[0]
+    errs, slope = observed_order(name, scene, model, y0, y_ref, hs, HORIZON)
     print(f"{name:18s} {end:13s} errors {np.array2string(errs, precision=2)} -> order {slope:.2f}")
     # the reference must be far more accurate than the finest run, or the slope is meaningless
     assert errs[-1] > 1e3 * 1e-13 * np.max(np.abs(y_ref))

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from order_scenes import ENDS, SMOOTH
+from order_scenes import ENDS, observed_order, order_scene
 
 from cable_sim.integrate import IntegrationError, ScipyIntegrator, make_integrator
 from cable_sim.integrate.implicit import radau
@@ -72,8 +72,7 @@ def drag_free() -> dict:
     """The smooth scene without drag per end condition, and its DOP853 end state."""
     out = {}
     for end in ENDS:
-        scene = load_scene("paper_free_fall", {**SMOOTH, **ENDS[end], "anchor_x": 150.0,
-                                               "anchor_z": -150.0, "drag_model": "none"})
+        scene = order_scene(end, drag_model="none")
         model = scene.model()
         y0 = scene.initial_state(model)
         ref = ScipyIntegrator(scene.system(model=model), "DOP853", rtol=1e-13, atol=1e-13)
@@ -85,12 +84,7 @@ def drag_free() -> dict:
 def test_observed_order_five(drag_free, end: str) -> None:
     scene, model, y0, y_ref = drag_free[end]
     hs = np.array([0.25, 0.125, 0.0625])
-    errs = []
-    for h in hs:
-        integ = make_integrator("radau_iia", scene.system(model=model), float(h), newton_tol=1e-12)
-        errs.append(float(np.max(np.abs(integ.advance(0.0, y0, HORIZON) - y_ref))))
-    errs = np.array(errs)
-    slope = np.polyfit(np.log(hs), np.log(errs), 1)[0]
+    errs, slope = observed_order("radau_iia", scene, model, y0, y_ref, hs, HORIZON, newton_tol=1e-12)
     print(f"\nradau_iia {end}: errors {np.array2string(errs, precision=2)} -> order {slope:.2f}")
     assert errs[-1] > 1e3 * 1e-13 * np.max(np.abs(y_ref))
     assert abs(slope - 5.0) <= 0.5
