@@ -91,12 +91,12 @@ def radau_workspace(n: int) -> tuple:
     """Scratch of :func:`_radau_step` for n links: the real factorisation's
     (:func:`cable_sim.integrate.implicit.run.factor_workspace`), the complex one's ``Wc, Sc,
     Xc``, stage increments ``Zq, Zv`` (3, n+1), stage slopes ``Fq, Fv`` (3, n+1), real rows
-    (8, n+1) and complex rows (5, n+1)."""
+    (9, n+1; the last holds the anchor reaction) and complex rows (5, n+1)."""
     n1 = n + 1
     return (factor_workspace(n), np.zeros((_NW, n), dtype=np.complex128),
             np.zeros(_NS, dtype=np.complex128), np.zeros((2, n1), dtype=np.complex128),
             np.zeros((3, n1)), np.zeros((3, n1)), np.zeros((3, n1)), np.zeros((3, n1)),
-            np.zeros((8, max(n1, 2))), np.zeros((5, n1), dtype=np.complex128))
+            np.zeros((9, max(n1, 2))), np.zeros((5, n1), dtype=np.complex128))
 
 
 @nb.njit(cache=True, inline="always")
@@ -153,7 +153,7 @@ def _radau_step(arr: np.ndarray, par: np.ndarray, geometric: bool, predict: bool
     rv = wk[5]
     rk = wk[6]
     yq = wk[7]
-    lam = np.empty(2)
+    lam = wk[8, :2]
     q = y[:n1]
     v = y[n1:]
     if not fd_packed_ws(arr, par, us[0], es[0], q, v, acc, lam, fw):
