@@ -50,6 +50,19 @@ def dop853_reference(end: str, horizon: float) -> np.ndarray:
     return ref.advance(0.0, y0, horizon)
 
 
+def reference_cases(horizon: float, **overrides) -> dict[str, tuple]:
+    """Per end condition: (scene, model, initial state, DOP853 end state at ``horizon`` at
+    rtol = atol = 1e-13) of :func:`order_scene` with ``overrides``."""
+    out = {}
+    for end in ENDS:
+        scene = order_scene(end, **overrides)
+        model = scene.model()
+        y0 = scene.initial_state(model)
+        ref = ScipyIntegrator(scene.system(model=model), "DOP853", rtol=1e-13, atol=1e-13)
+        out[end] = (scene, model, y0, ref.advance(0.0, y0, horizon))
+    return out
+
+
 def observed_order(name: str, scene: Scene, model: CableModel, y0: np.ndarray, y_ref: np.ndarray,
                    hs: np.ndarray, horizon: float, **kwargs) -> tuple[np.ndarray, float]:
     """Errors of integrator ``name`` (``kwargs`` to :func:`make_integrator`) at ``horizon`` against

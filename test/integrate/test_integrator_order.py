@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from order_scenes import ENDS, observed_order, order_scene
+from order_scenes import ENDS, observed_order, reference_cases
 
 from cable_sim.core import dynamics
 from cable_sim.core.dynamics import Inputs
@@ -29,7 +29,6 @@ from cable_sim.integrate import (
     INTEGRATORS,
     RK4,
     IntegrationError,
-    ScipyIntegrator,
     SemiImplicitEuler,
     implicit,
     make_integrator,
@@ -59,14 +58,7 @@ FIXED_STEP = sorted(name for name in (set(INTEGRATORS) | set(implicit.INTEGRATOR
 @pytest.fixture(scope="module")
 def references() -> dict:
     """DOP853 (rtol = atol = 1e-13) end states of the smooth scene, per end condition."""
-    out = {}
-    for end in ENDS:
-        scene = order_scene(end)
-        model = scene.model()
-        y0 = scene.initial_state(model)
-        ref = ScipyIntegrator(scene.system(model=model), "DOP853", rtol=1e-13, atol=1e-13)
-        out[end] = (scene, model, y0, ref.advance(0.0, y0, HORIZON))
-    return out
+    return reference_cases(HORIZON)
 
 
 @pytest.mark.parametrize("end", list(ENDS))

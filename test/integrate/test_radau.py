@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from order_scenes import ENDS, observed_order, order_scene
+from order_scenes import ENDS, observed_order, reference_cases
 
 from cable_sim.integrate import IntegrationError, ScipyIntegrator, make_integrator
 from cable_sim.integrate.implicit import radau
@@ -70,14 +70,7 @@ def test_stability_function_l_stable_and_order_five() -> None:
 @pytest.fixture(scope="module")
 def drag_free() -> dict:
     """The smooth scene without drag per end condition, and its DOP853 end state."""
-    out = {}
-    for end in ENDS:
-        scene = order_scene(end, drag_model="none")
-        model = scene.model()
-        y0 = scene.initial_state(model)
-        ref = ScipyIntegrator(scene.system(model=model), "DOP853", rtol=1e-13, atol=1e-13)
-        out[end] = (scene, model, y0, ref.advance(0.0, y0, HORIZON))
-    return out
+    return reference_cases(HORIZON, drag_model="none")
 
 
 @pytest.mark.parametrize("end", list(ENDS))
