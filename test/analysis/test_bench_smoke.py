@@ -440,3 +440,29 @@ def test_slope_rows_report_the_large_n_slope() -> None:
     assert row["measured"] == pytest.approx(whole["s"]) and not row["met"]
     assert "over n = 160..640 alone: 1.00" in row["detail"]
     assert "alone" not in _slope_rows(whole)[0]["detail"]
+
+
+def test_ladder_goes_past_the_floor_while_steps_are_halved() -> None:
+    """A fixed-step ladder stops at the first run below the error floor that halved no step
+    attempt; a run below the floor that halved some (a smaller nominal step may be cheaper)
+    does not stop it. Rows are taken over from ``--resume`` so nothing is simulated."""
+    from types import SimpleNamespace
+
+    from cable_sim.analysis.bench.resume import row_key
+    from cable_sim.analysis.bench.workprecision import _Ladder
+
+    steps = [0.5, 0.25, 0.125, 0.0625]
+    halved = {0.5: 40, 0.25: 3, 0.125: 0, 0.0625: 0}  # below the floor at every step
+
+    def plan(halvings):
+        resumed = {row_key("s", 80, "radau_iia", h, 10.0, "fast"):
+                   dict(status="ok", error_m=1e-7, halved=halvings[h], wall=0.1, wall_inputs=0.0,
+                        source="earlier run") for h in steps}
+        return SimpleNamespace(resumed=resumed, floor=1e-5, steps=steps, tols=[], kernel="fast",
+                               duration=lambda scene: 10.0)
+
+    ref = (None, "ref", 0.0)
+    rows = _Ladder(plan(halved), "s", 80, "radau_iia", {}, ref).run()
+    assert [r["halved"] for r in rows] == [40, 3, 0]  # stops at 0.125 s, the first unhalved one
+    rows = _Ladder(plan(dict.fromkeys(steps, 0)), "s", 80, "radau_iia", {}, ref).run()
+    assert len(rows) == 1  # below the floor without halving: refining only costs more

@@ -2,8 +2,10 @@
 
 A ladder stops where refining only costs more: below the error floor, after a run over the
 budget, or after a setting that took more than half of it; a scheme over the budget at one n is
-skipped at larger n of that scene. Rows measured by an earlier invocation (``--resume``) are
-taken over.
+skipped at larger n of that scene. A run below the floor that redid step attempts in halves
+(``radau_iia`` where its Newton iteration did not converge) does not stop the ladder: a smaller
+nominal step that needs fewer halvings can be cheaper. Rows measured by an earlier invocation
+(``--resume``) are taken over.
 
 Part of the analysis layer: may import every layer; here the bench modules only.
 """
@@ -65,8 +67,13 @@ class _Ladder:
             return row, True
         if row["status"] == "ok":
             self.prev_wall = row["wall"] + row["wall_inputs"]
-            return row, row["error_m"] < self.plan.floor
+            return row, self._refined_enough(row)
         return row, False
+
+    def _refined_enough(self, row: dict) -> bool:
+        """Whether a smaller step or tolerance than this ok row's can only cost more: its error
+        is below the floor and it halved no step attempt."""
+        return row["error_m"] < self.plan.floor and not row["halved"]
 
     def _skip(self) -> str | None:
         if time.perf_counter() > self.plan.deadline:
@@ -98,7 +105,7 @@ class _Ladder:
                f" (incl. input sampling {row['rtf_incl_inputs']:.1f})" if r.ok else ""))
         stop = ((skip is not None and "max-wall" not in skip)  # the rest of the ladder costs more
                 or (r.status.startswith("skipped") and not skip)
-                or (r.ok and row["error_m"] < self.plan.floor))
+                or (r.ok and self._refined_enough(row)))
         return row, stop
 
     def run(self) -> list[dict]:
