@@ -62,9 +62,10 @@ def dense_operator(
     return M, D, K
 
 
-def _dense_solve(model: CableModel, q: np.ndarray, Mt: np.ndarray, rhs: np.ndarray) -> np.ndarray:
-    """Solve ``Mt x = rhs`` (anchored: with ``J x = 0``) densely, heave lock respected (real or
-    complex ``Mt``, ``rhs``)."""
+def _dense_solve(model: CableModel, q: np.ndarray, Mt: np.ndarray, rhs: np.ndarray,
+                 end_motion: np.ndarray | None = None) -> np.ndarray:
+    """Solve ``Mt x = rhs`` (anchored: with ``J x = 0``, or ``J x = end_motion`` when given)
+    densely, heave lock respected (real or complex ``Mt``, ``rhs``)."""
     s = 1 if model.heave_locked else 0
     dtype = np.result_type(Mt, rhs)  # complex for Radau IIA's complex eigenvalue
     x = np.zeros(model.ndof, dtype=dtype)
@@ -76,8 +77,25 @@ def _dense_solve(model: CableModel, q: np.ndarray, Mt: np.ndarray, rhs: np.ndarr
         kkt[:k, :k] = A
         kkt[:k, k:] = J.T
         kkt[k:, :k] = J
-        sol = np.linalg.solve(kkt, np.concatenate([rhs[s:], np.zeros(2)]))
+        target = np.zeros(2) if end_motion is None else end_motion
+        sol = np.linalg.solve(kkt, np.concatenate([rhs[s:], target]))
         x[s:] = sol[:k]
     else:
         x[s:] = np.linalg.solve(A, rhs[s:])
     return x
+
+
+def baumgarte_end_motion(model: CableModel, q: np.ndarray, hg: complex, rv: np.ndarray,
+                         rk: np.ndarray) -> np.ndarray | None:
+    """``J x`` of the shifted system's solve at an anchored end (None otherwise): ``hg (2 alpha
+    J rv + beta^2 J rk) / (1 + 2 alpha hg + beta^2 hg^2)``, the linearised Baumgarte
+    stabilisation (dense reference of
+    :func:`cable_sim.integrate.implicit.op_solve._op_solve_stabilised`)."""
+    if not model.constrained:
+        return None
+    J = dynamics.constraint_jacobian(model, q)
+    if model.heave_locked:
+        J[:, 0] = 0.0
+    alpha, beta2 = model.baumgarte_alpha, model.baumgarte_beta ** 2
+    return hg * (2.0 * alpha * (J @ rv) + beta2 * (J @ rk)) / (1.0 + hg * (2.0 * alpha + beta2 * hg))
+

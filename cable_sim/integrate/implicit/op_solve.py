@@ -1,8 +1,9 @@
 """Solve with a factorised O(n) operator ``M + hg D + hg^2 K`` (see
 :mod:`cable_sim.integrate.implicit.operator`): the inward and outward sweeps of a generalised
 force written as affine maps of the previous link's values (:func:`_solve_inward`,
-:func:`_solve_outward`) and the solve with the anchored end's or heavy load's 2x2 correction
-(:func:`_op_solve`).
+:func:`_solve_outward`), the solve with the anchored end's or heavy load's 2x2 correction
+(:func:`_op_solve`) and, for Radau IIA's Newton iteration, the same solve with the anchor's
+linearised Baumgarte stabilisation (:func:`_op_solve_stabilised`).
 
 Integrate layer: imports numba, numpy, :mod:`cable_sim.core.kernel` and the sibling
 ``op_layout``.
@@ -15,6 +16,7 @@ import numpy as np
 
 from cable_sim.core.kernel.sweeps import add_columns, solve_2x2
 from cable_sim.integrate.implicit.op_layout import (
+    _MODE_CONSTRAINED,
     _MODE_HEAVY,
     _MODE_NONE,
     _S_AZZ,
@@ -128,4 +130,46 @@ def _op_solve(arr: np.ndarray, par: np.ndarray, G: np.ndarray, W: np.ndarray, S:
     a11 = S[_S_J00] + eps
     a22 = S[_S_J11] + eps
     f0, f1 = solve_2x2(a11, S[_S_J01], S[_S_J10], a22, -apx, -apz)
+    add_columns(x, X[0], f0, X[1], f1)
+
+
+@nb.njit(cache=True, inline="always")
+def _end_motion(arr: np.ndarray, par: np.ndarray, G: np.ndarray, vec: np.ndarray) -> tuple:
+    """``J vec``: the anchored end's (x, z) motion from a generalised increment ``vec``, with
+    ``J = d p_n / d q`` (``l_i cos th_i``, ``l_i sin th_i``; 1 for the platform in z unless its
+    heave is locked) at the factorisation's geometry ``G``. Real or complex."""
+    l = arr[0]
+    cth = G[_W_COS]
+    sth = G[_W_SIN]
+    jx = 0.0 * vec[0]
+    jz = vec[0] if par[7] == 0.0 else 0.0 * vec[0]
+    for i in range(l.shape[0]):
+        jx += l[i] * cth[i] * vec[i + 1]
+        jz += l[i] * sth[i] * vec[i + 1]
+    return jx, jz
+
+
+@nb.njit(cache=True, inline="always")
+def _op_solve_stabilised(arr: np.ndarray, par: np.ndarray, hg: complex, G: np.ndarray,
+                         W: np.ndarray, S: np.ndarray, X: np.ndarray, rhs: np.ndarray,
+                         x: np.ndarray, rv: np.ndarray, rk: np.ndarray) -> None:
+    """:func:`_op_solve` for the shifted system ``(I - hg T) s = (rq, rv)`` (``x = rv - sv``,
+    ``rk = rq + hg rv``), where at an anchored end ``J x`` is not 0 but what the linearised
+    Baumgarte stabilisation of the forward dynamics (``J a = ... - 2 alpha J v - beta^2 Phi``)
+    asks: ``J x = hg (2 alpha J rv + beta^2 J rk) / (1 + 2 alpha hg + beta^2 hg^2)``. Without
+    it the iteration matrix has no term for the constraint-violating directions, where the
+    forward dynamics' Jacobian has ``2 alpha`` and ``beta^2``; a simplified Newton iteration
+    over a step with ``hg beta`` near 1 or more then diverges there (the stage states of an
+    implicit Runge-Kutta step are off the constraint). Other end conditions: :func:`_op_solve`."""
+    _op_solve(arr, par, G, W, S, X, rhs, x)
+    if S[_S_MODE] != _MODE_CONSTRAINED:
+        return
+    alpha = par[13]
+    beta2 = par[14] * par[14]
+    jvx, jvz = _end_motion(arr, par, G, rv)
+    jkx, jkz = _end_motion(arr, par, G, rk)
+    scale = hg / (1.0 + hg * (2.0 * alpha + beta2 * hg))
+    f0, f1 = solve_2x2(S[_S_J00], S[_S_J01], S[_S_J10], S[_S_J11],
+                       scale * (2.0 * alpha * jvx + beta2 * jkx),
+                       scale * (2.0 * alpha * jvz + beta2 * jkz))
     add_columns(x, X[0], f0, X[1], f1)

@@ -17,7 +17,11 @@ for ``k = 1`` (real) and ``k = 2`` (complex; ``k = 3`` is its conjugate), then
 per iteration (the complex factorisation reads its geometry from the real one's workspace:
 :func:`cable_sim.integrate.implicit.op_factor._op_factor_trig`). Both are factored once per
 step, at the step's start, with the drag linearised at the predicted velocity ``v + h a``
-(``predict``) and the seabed contact over the step.
+(``predict``) and the seabed contact over the step. At an anchored end the solves add the
+anchor's linearised Baumgarte stabilisation
+(:func:`cable_sim.integrate.implicit.op_solve._op_solve_stabilised`): the stage states are off
+the constraint, where the forward dynamics pull back at rates ``2 alpha``, ``beta^2`` that the
+W-methods' operator leaves out.
 
 Newton's increments are measured by the largest scaled entry ``|dZ_j| / (tol (1 + |y_j|))``;
 the iteration stops when that times ``theta / (1 - theta)`` (its contraction rate, of the
@@ -44,7 +48,7 @@ from cable_sim.core.kernel.links import link_trig
 from cable_sim.integrate.implicit.op_factor import _op_factor_trig
 from cable_sim.integrate.implicit.op_layout import _NS, _NW
 from cable_sim.integrate.implicit.op_product import _dk_product
-from cable_sim.integrate.implicit.op_solve import _op_solve
+from cable_sim.integrate.implicit.op_solve import _op_solve_stabilised
 from cable_sim.integrate.implicit.run import _factor_at, factor_workspace
 
 #: A step whose Newton iteration fails is halved at most this often (down to h / 4096).
@@ -114,12 +118,13 @@ def _solve_shifted(arr: np.ndarray, par: np.ndarray, hg: complex, G: np.ndarray,
                    rhs: np.ndarray, x: np.ndarray) -> None:
     """``(I - hg T) s = (rq, rv)`` in place (``rv`` becomes ``sv``, ``rq`` becomes ``sq``) with a
     factorisation W, S, X at ``hg``: real (``G is W``) or complex (``G``: the real
-    factorisation's geometry rows; compiled once per kind)."""
+    factorisation's geometry rows; compiled once per kind). At an anchored end ``T`` includes
+    the anchor's Baumgarte stabilisation (:func:`_op_solve_stabilised`)."""
     n1 = rq.shape[0]
     for j in range(n1):
         rk[j] = rq[j] + hg * rv[j]
     _dk_product(arr, par, hg, G, W, rv, rk, rhs)
-    _op_solve(arr, par, G, W, S, X, rhs, x)
+    _op_solve_stabilised(arr, par, hg, G, W, S, X, rhs, x, rv, rk)
     for j in range(n1):
         rv[j] = rv[j] - x[j]
         rq[j] = rq[j] + hg * rv[j]
