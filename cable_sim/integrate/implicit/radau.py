@@ -151,7 +151,12 @@ class RadauIIA(Integrator):
         The Newton iteration stops when its estimated distance to the solution (the last
         increment times ``theta / (1 - theta)``, ``theta`` its contraction) is at most
         ``newton_tol (1 + |y_j|)`` in every entry (positions [m, rad], velocities [m/s, rad/s]);
-        default 1e-8.
+        default 1e-6. Hairer's RADAU5 stops at ``min(0.03, sqrt(r))`` times its error tolerance
+        (``r = 0.1 rtol^(2/3)``; RMS norm): 3e-5 to 1e-7 for rtol = 1e-3 to 1e-4, where the
+        adaptive schemes here are within 1 cm. Measured on the paper free fall (README, "Radau
+        IIA's Newton tolerance"): against 1e-8, 25-45 % less wall time, the error within 15 %
+        below the largest step within 1 cm, up to twice as large at that step (fewer attempts
+        halved).
     newton_maxit : int
         Iterations after which a step counts as not converging (then halved; also earlier when
         the increments stop shrinking or cannot reach the tolerance in time); default 10.
@@ -165,7 +170,7 @@ class RadauIIA(Integrator):
     order = 5
     _fast_offsets = tuple(float(c) for c in OFFSETS)
 
-    def __init__(self, system: CableSystem, step: float = 1e-2, newton_tol: float = 1e-8,
+    def __init__(self, system: CableSystem, step: float = 1e-2, newton_tol: float = 1e-6,
                  newton_maxit: int = 10, geometric_stiffness: bool = True,
                  predict_drag: bool = True, **kwargs) -> None:
         if not (np.isfinite(newton_tol) and 0.0 < newton_tol < 1.0):
