@@ -152,7 +152,7 @@ class RadauIIA(Integrator):
         increment times ``theta / (1 - theta)``, ``theta`` its contraction) is at most
         ``newton_tol (1 + |y_j|)`` in every entry (positions [m, rad], velocities [m/s, rad/s]);
         default 1e-6. Hairer's RADAU5 stops at ``min(0.03, sqrt(r))`` times its error tolerance
-        (``r = 0.1 rtol^(2/3)``; RMS norm): 3e-5 to 1e-7 for rtol = 1e-3 to 1e-4, where the
+        (``r = 0.1 rtol^(2/3)``; RMS norm): 3e-5 to 3e-6 for rtol = 1e-3 to 1e-4, where the
         adaptive schemes here are within 1 cm. Measured on the paper free fall (README, "Radau
         IIA's Newton tolerance"): against 1e-8, 25-45 % less wall time, the error within 15 %
         below the largest step within 1 cm, up to twice as large at that step (fewer attempts
