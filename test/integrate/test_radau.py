@@ -147,3 +147,55 @@ def test_bad_newton_settings_are_named(name: str, value: float) -> None:
     scene, model, _ = _free_fall(4)
     with pytest.raises(ValueError, match=f"parameter '{name}'"):
         make_integrator("radau_iia", scene.system(model=model), 0.05, **{name: value})
+
+
+@pytest.mark.parametrize("hg", [0.07, 0.25 / radau.LAM2])
+@pytest.mark.parametrize("locked", [False, True])
+def test_stabilised_solve_meets_the_linearised_baumgarte_condition(locked: bool, hg: complex) -> None:
+    """The O(n) solve of Radau IIA's Newton iteration at an anchored end
+    (``_op_solve_stabilised``): ``(M + hg D + hg^2 K) x - rhs`` is a constraint force ``J^T mu``
+    and ``J x`` is what the linearised Baumgarte stabilisation asks, ``hg (2 alpha J rv +
+    beta^2 J rk) / (1 + 2 alpha hg + beta^2 hg^2)``; checked with the dense matrices
+    (``dense_operator``) and ``J`` from ``dynamics.constraint_jacobian``, heave free and locked,
+    real and complex ``hg``."""
+    from cable_sim.core import dynamics
+    from cable_sim.core.model import CableModel
+    from cable_sim.core.params import CableParams
+    from cable_sim.integrate.implicit.dense import dense_operator
+    from cable_sim.integrate.implicit.op_solve import _op_solve_stabilised
+    from cable_sim.integrate.implicit.operator import _factor_fast
+
+    p = CableParams(n_links=15, total_length=40.0, diameter=0.1, mass_per_length=50.0,
+                    drag_model="morison", end_condition="anchored", anchor_x=25.0, anchor_z=-30.0,
+                    heave_locked=locked, constraint_stiffness=20.0)
+    m = CableModel.from_params(p)
+    rng = np.random.default_rng(3 + locked)
+    q = np.concatenate([[rng.uniform(-1.0, 1.0)], rng.uniform(0.3, 1.4, m.n)])
+    qd = rng.normal(0.0, 0.3, m.ndof)
+    if locked:
+        qd[0] = 0.0
+    kgeo = rng.uniform(0.0, 2.0e3, m.n)
+    arr, par, G, W, S, X, ok = _factor_fast(m, q, qd, hg, kgeo)
+    assert ok
+    cplx = isinstance(hg, complex)
+    dt = complex if cplx else float
+    rv = rng.normal(size=m.ndof) + (1j * rng.normal(size=m.ndof) if cplx else 0.0)
+    rk = rng.normal(size=m.ndof) + (1j * rng.normal(size=m.ndof) if cplx else 0.0)
+    rhs = 1e3 * rng.normal(size=m.ndof) + (1e3j * rng.normal(size=m.ndof) if cplx else 0.0)
+    if locked:
+        rv[0] = rk[0] = rhs[0] = 0.0
+    x = np.empty(m.ndof, dtype=dt)
+    _op_solve_stabilised(arr, par, hg, G, W, S, X, np.ascontiguousarray(rhs, dtype=dt), x,
+                         np.ascontiguousarray(rv, dtype=dt), np.ascontiguousarray(rk, dtype=dt))
+    s = 1 if locked else 0
+    J = dynamics.constraint_jacobian(m, q)[:, s:]
+    a, b2 = m.baumgarte_alpha, m.baumgarte_beta ** 2
+    target = hg * (2.0 * a * (J @ rv[s:]) + b2 * (J @ rk[s:])) / (1.0 + hg * (2.0 * a + b2 * hg))
+    assert np.abs(target).max() > 1e-3 * np.abs(J @ x[s:]).max()  # the condition is not J x = 0
+    assert np.allclose(J @ x[s:], target, rtol=1e-9, atol=1e-12 * np.abs(target).max())
+    M, D, K = dense_operator(m, q, qd, kgeo)
+    resid = ((M + hg * D + hg * hg * K) @ x - rhs)[s:]
+    mu = np.linalg.lstsq(J.T, resid, rcond=None)[0]
+    assert np.abs(resid - J.T @ mu).max() <= 1e-9 * np.abs(rhs).max()
+    if locked:
+        assert x[0] == 0.0
