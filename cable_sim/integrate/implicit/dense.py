@@ -98,4 +98,3 @@ def baumgarte_end_motion(model: CableModel, q: np.ndarray, hg: complex, rv: np.n
         J[:, 0] = 0.0
     alpha, beta2 = model.baumgarte_alpha, model.baumgarte_beta ** 2
     return hg * (2.0 * alpha * (J @ rv) + beta2 * (J @ rk)) / (1.0 + hg * (2.0 * alpha + beta2 * hg))
-
