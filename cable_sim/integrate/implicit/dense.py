@@ -97,4 +97,4 @@ def baumgarte_end_motion(model: CableModel, q: np.ndarray, hg: complex, rv: np.n
     if model.heave_locked:
         J[:, 0] = 0.0
     alpha, beta2 = model.baumgarte_alpha, model.baumgarte_beta ** 2
-    return hg * (2.0 * alpha * (J @ rv) + beta2 * (J @ rk)) / (1.0 + hg * (2.0 * alpha + beta2 * hg))
+    return hg * (J @ (2.0 * alpha * rv + beta2 * rk)) / (1.0 + hg * (2.0 * alpha + beta2 * hg))

@@ -134,18 +134,22 @@ def _op_solve(arr: np.ndarray, par: np.ndarray, G: np.ndarray, W: np.ndarray, S:
 
 
 @nb.njit(cache=True, inline="always")
-def _end_motion(arr: np.ndarray, par: np.ndarray, G: np.ndarray, vec: np.ndarray) -> tuple:
-    """``J vec``: the anchored end's (x, z) motion from a generalised increment ``vec``, with
-    ``J = d p_n / d q`` (``l_i cos th_i``, ``l_i sin th_i``; 1 for the platform in z unless its
-    heave is locked) at the factorisation's geometry ``G``. Real or complex."""
+def _end_motion(arr: np.ndarray, par: np.ndarray, G: np.ndarray, a: float, u: np.ndarray, b: float,
+                w: np.ndarray) -> tuple:
+    """``J (a u + b w)``: the anchored end's (x, z) motion from the generalised increment
+    ``a u + b w``, with ``J = d p_n / d q`` (``l_i cos th_i``, ``l_i sin th_i``; 1 for the
+    platform in z unless its heave is locked) at the factorisation's geometry ``G``. One pass
+    over the links; real or complex ``u``, ``w``."""
     l = arr[0]
     cth = G[_W_COS]
     sth = G[_W_SIN]
-    jx = 0.0 * vec[0]
-    jz = vec[0] if par[7] == 0.0 else 0.0 * vec[0]
+    v0 = a * u[0] + b * w[0]
+    jx = 0.0 * v0
+    jz = v0 if par[7] == 0.0 else 0.0 * v0
     for i in range(l.shape[0]):
-        jx += l[i] * cth[i] * vec[i + 1]
-        jz += l[i] * sth[i] * vec[i + 1]
+        v = a * u[i + 1] + b * w[i + 1]
+        jx += l[i] * cth[i] * v
+        jz += l[i] * sth[i] * v
     return jx, jz
 
 
@@ -166,10 +170,7 @@ def _op_solve_stabilised(arr: np.ndarray, par: np.ndarray, hg: complex, G: np.nd
         return
     alpha = par[13]
     beta2 = par[14] * par[14]
-    jvx, jvz = _end_motion(arr, par, G, rv)
-    jkx, jkz = _end_motion(arr, par, G, rk)
+    jx, jz = _end_motion(arr, par, G, 2.0 * alpha, rv, beta2, rk)
     scale = hg / (1.0 + hg * (2.0 * alpha + beta2 * hg))
-    f0, f1 = solve_2x2(S[_S_J00], S[_S_J01], S[_S_J10], S[_S_J11],
-                       scale * (2.0 * alpha * jvx + beta2 * jkx),
-                       scale * (2.0 * alpha * jvz + beta2 * jkz))
+    f0, f1 = solve_2x2(S[_S_J00], S[_S_J01], S[_S_J10], S[_S_J11], scale * jx, scale * jz)
     add_columns(x, X[0], f0, X[1], f1)
