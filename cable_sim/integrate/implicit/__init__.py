@@ -70,6 +70,9 @@ Schemes (:data:`INTEGRATORS`):
   the iteration converge; a step whose iteration does not converge is redone in halves. Fixed
   step; the largest steps within 1 cm at large n (the W-methods' step there is bounded by how
   far the local operator is from the Jacobian).
+  :class:`~cable_sim.integrate.implicit.radau.RadauIIAAdaptive` (``radau_iia_adaptive``): the
+  same with Hairer & Wanner's embedded order-3 estimate and the PI step controller
+  (:mod:`~cable_sim.integrate.implicit.radau_adaptive`).
 
 All have a compiled fast path (system kernel ``"fast"``: the whole step, its checks and the
 projection run in numba; :meth:`advance` runs many steps in one call) and a dense fallback
@@ -85,8 +88,9 @@ module: ``ros_tableau`` (a W-method's coefficients in both forms, ROS34PW2's), `
 compiled step and fixed-step run, parametrised by the tableau), ``ros_adaptive`` (error norm, PI
 controller, compiled adaptive run)), ``ros34prw`` (ROS34PRw, the same loops with another
 tableau), ``w6s4os`` (W6S4OS, the same step with a six-stage tableau), ``radau`` (Radau IIA:
-coefficients, dense reference step, integrator class) with ``radau_step`` (its compiled step and
-fixed-step run), ``dense`` (the dense reference operator and solve).
+coefficients, dense reference step, integrator classes) with ``radau_step`` (its compiled step and
+fixed-step run) and ``radau_adaptive`` (its error estimate and compiled adaptive run),
+``dense`` (the dense reference operator and solve).
 
 Integrate layer: this ``__init__`` re-exports its modules' public API; they import numba,
 numpy, :mod:`cable_sim.core` and :mod:`cable_sim.integrate.base`.
@@ -97,7 +101,7 @@ from __future__ import annotations
 from cable_sim.integrate.implicit import dense
 from cable_sim.integrate.implicit.dense import dense_operator
 from cable_sim.integrate.implicit.operator import geometric_stiffness, operator_product, operator_solve
-from cable_sim.integrate.implicit.radau import RadauIIA
+from cable_sim.integrate.implicit.radau import RadauIIA, RadauIIAAdaptive
 from cable_sim.integrate.implicit.ros34 import Ros34PW2, Ros34PW2Adaptive
 from cable_sim.integrate.implicit.ros34prw import Ros34PRw, Ros34PRwAdaptive
 from cable_sim.integrate.implicit.schemes import INTEGRATORS, LinearlyImplicitEuler, Rosenbrock2
@@ -113,6 +117,7 @@ __all__ = [
     "Ros34PRwAdaptive",
     "W6S4OS",
     "RadauIIA",
+    "RadauIIAAdaptive",
     "operator_solve",
     "operator_product",
     "dense_operator",

@@ -24,12 +24,14 @@ reach 1e4 rad/s^2 at n = 640) is redone as two halves, each with its own factori
 converge").
 
 Cost per step: one force evaluation and two factorisations (one real, one complex), then per
-Newton iteration three force evaluations, one real and one complex O(n) solve. There is no
-embedded error estimate here: fixed step only.
+Newton iteration three force evaluations, one real and one complex O(n) solve.
+:class:`RadauIIAAdaptive` (``radau_iia_adaptive``) adds the embedded error estimate (one more
+real O(n) solve per step; :mod:`cable_sim.integrate.implicit.radau_adaptive`) and steps
+adaptively; a step whose iteration does not converge is then rejected and retried smaller.
 
-Integrate layer: imports numpy, :mod:`cable_sim.core` (dynamics, system),
-:mod:`cable_sim.integrate.base`, :mod:`cable_sim.integrate.errors` and the sibling modules
-``dense``, ``operator`` and ``radau_step``.
+Integrate layer: imports numpy, :mod:`cable_sim.core` (dynamics, kernel, system),
+:mod:`cable_sim.integrate` (adaptive, base, errors, step_control) and the sibling modules
+``dense``, ``operator``, ``radau_adaptive`` and ``radau_step``.
 """
 
 from __future__ import annotations
@@ -37,11 +39,14 @@ from __future__ import annotations
 import numpy as np
 
 from cable_sim.core import dynamics
+from cable_sim.core import kernel as fast
 from cable_sim.core.system import CableSystem
+from cable_sim.integrate.adaptive import AdaptiveStepping
 from cable_sim.integrate.base import Integrator
 from cable_sim.integrate.errors import IntegrationError
 from cable_sim.integrate.implicit.dense import _dense_solve, baumgarte_end_motion, dense_operator
 from cable_sim.integrate.implicit.operator import geometric_stiffness as _geometric_stiffness
+from cable_sim.integrate.implicit.radau_adaptive import _K_EXP, DD, _radau_adaptive_run
 from cable_sim.integrate.implicit.radau_step import (
     MAX_HALVINGS,
     NEWTON_CONVERGED,
@@ -50,6 +55,7 @@ from cable_sim.integrate.implicit.radau_step import (
     _radau_fixed_run,
     newton_verdict,
 )
+from cable_sim.integrate.step_control import err_norm
 
 _S6 = np.sqrt(6.0)
 #: Radau IIA (s = 3) coefficients (Hairer & Wanner IV.5, Table 5.6).
@@ -90,6 +96,26 @@ def _dense_radau_step(system: CableSystem, t: float, y: np.ndarray, h: float, ge
     the compiled step from the explicit Euler guess (reference for it): the new state (None when
     the iteration does not converge) and the iterations done. ``newton[0]``: the contraction
     estimate carried from step to step (updated)."""
+    yn, its, _ = _dense_radau_attempt(system, t, y, h, geometric, predict, tol, maxit, newton)
+    return yn, its
+
+
+def _dense_shifted_solve(model, q: np.ndarray, hg: complex, M: np.ndarray, D: np.ndarray,
+                         K: np.ndarray, rq: np.ndarray, rv: np.ndarray
+                         ) -> tuple[np.ndarray, np.ndarray]:
+    """``(I - hg T) (sq, sv) = (rq, rv)`` with the dense operator (the compiled
+    ``radau_step._solve_shifted``)."""
+    rk = rq + hg * rv
+    sv = rv - _dense_solve(model, q, M + hg * D + hg * hg * K, hg * (D @ rv) + hg * (K @ rk),
+                           baumgarte_end_motion(model, q, hg, rv, rk))
+    return rq + hg * sv, sv
+
+
+def _dense_radau_attempt(system: CableSystem, t: float, y: np.ndarray, h: float, geometric: bool,
+                         predict: bool, tol: float, maxit: int, newton: np.ndarray
+                         ) -> tuple[np.ndarray | None, int, tuple]:
+    """:func:`_dense_radau_step`, and what its error estimate needs: ``(M, D, K, Zq, Zv, a_0)``
+    (the operator's matrices, the stage increments, the accelerations at y)."""
     model = system.model
     n1 = model.ndof
     q, v = y[:n1], y[n1:]
@@ -100,7 +126,6 @@ def _dense_radau_step(system: CableSystem, t: float, y: np.ndarray, h: float, ge
         kgeo = _geometric_stiffness(model, q, dynamics.joint_forces(model, q, v, acc, lam))
     M, D, K = dense_operator(model, q, v + h * acc if predict else v, kgeo)
     hgs = (h / LAM1, h / LAM2)
-    ops = [M + hg * D + hg * hg * K for hg in hgs]
     Zq = np.outer(C * h, v)
     Zv = np.outer(C * h, acc)
     scq = tol * (1.0 + np.abs(q))
@@ -113,14 +138,9 @@ def _dense_radau_step(system: CableSystem, t: float, y: np.ndarray, h: float, ge
         for i in range(3):
             Fv[i] = system.accelerations(t + C[i] * h, np.concatenate([q + Zq[i], v + Zv[i]]))[0]
             system.nfev += 1
-        dW = []
-        for ti, hg, Mt in zip((TI1, TI2), hgs, ops, strict=True):
-            rq = hg * (ti @ Fq) - ti @ Zq
-            rv = hg * (ti @ Fv) - ti @ Zv
-            rk = rq + hg * rv
-            sv = rv - _dense_solve(model, q, Mt, hg * (D @ rv) + hg * (K @ rk),
-                                   baumgarte_end_motion(model, q, hg, rv, rk))
-            dW.append((rq + hg * sv, sv))
+        dW = [_dense_shifted_solve(model, q, hg, M, D, K, hg * (ti @ Fq) - ti @ Zq,
+                                   hg * (ti @ Fv) - ti @ Zv)
+              for ti, hg in zip((TI1, TI2), hgs, strict=True)]
         dq = np.outer(V1, dW[0][0]) + (2.0 * np.outer(V2, dW[1][0])).real
         dv = np.outer(V1, dW[0][1]) + (2.0 * np.outer(V2, dW[1][1])).real
         Zq += dq
@@ -129,11 +149,24 @@ def _dense_radau_step(system: CableSystem, t: float, y: np.ndarray, h: float, ge
         verdict, eta = newton_verdict(it, big, prev, eta, maxit)
         if verdict == NEWTON_CONVERGED:
             newton[0] = eta
-            return np.concatenate([q + Zq[2], v + Zv[2]]), it + 1
+            return np.concatenate([q + Zq[2], v + Zv[2]]), it + 1, (M, D, K, Zq, Zv, acc)
         if verdict == NEWTON_FAILED:
-            return None, it + 1
+            return None, it + 1, ()
         prev = big
-    return None, maxit
+    return None, maxit, ()
+
+
+def _dense_radau_error(system: CableSystem, y: np.ndarray, h: float, parts: tuple,
+                       f: np.ndarray) -> np.ndarray:
+    """The error estimate of :mod:`cable_sim.integrate.implicit.radau_adaptive` with the dense
+    operator: ``(I - hg_1 T)^-1 (hg_1 f + gamma_0 sum_i d_i Z_i)`` for the step whose
+    :func:`_dense_radau_attempt` gave ``parts``, with the slope ``f`` (2(n+1))."""
+    M, D, K, Zq, Zv, _ = parts
+    n1 = system.model.ndof
+    hg = h / LAM1
+    sq, sv = _dense_shifted_solve(system.model, y[:n1], hg, M, D, K,
+                                  hg * f[:n1] + (DD @ Zq) / LAM1, hg * f[n1:] + (DD @ Zv) / LAM1)
+    return np.concatenate([sq, sv])
 
 
 class RadauIIA(Integrator):
@@ -234,4 +267,60 @@ class RadauIIA(Integrator):
         super()._raise_status(status, t, value, y_last)
 
 
-__all__ = ["A", "C", "LAM1", "LAM2", "OFFSETS", "TI1", "TI2", "V1", "V2", "RadauIIA"]
+class RadauIIAAdaptive(AdaptiveStepping, RadauIIA):
+    """Three-stage Radau IIA with its embedded order-3 error estimate and a PI step-size
+    controller (:mod:`cable_sim.integrate.implicit.radau_adaptive`).
+
+    Order 5, L-stable, see :class:`RadauIIA`. A step whose stage equations do not converge is
+    rejected like one whose error is too large. The stepping (output grid, error norm,
+    controller, rejection, input interpolation) is that of
+    :class:`cable_sim.integrate.adaptive.AdaptiveStepping`.
+
+    Parameters
+    ----------
+    system : CableSystem
+    step : float
+        Output interval of :meth:`Integrator.integrate`-style use and of :meth:`step` [s].
+    rtol, atol, first_step, max_step, safety, fac_min, fac_max, input_spacing
+        See :class:`cable_sim.integrate.adaptive.AdaptiveStepping`.
+    newton_tol, newton_maxit, geometric_stiffness, predict_drag, max_drift, taut_slack,
+    max_condition, compiled
+        See :class:`RadauIIA`.
+    """
+
+    name = "radau_iia_adaptive"
+    order = 5
+    k_exp = _K_EXP
+
+    def _run_adaptive(self, arr, par, t0, t1, tin0, tdt, u, eta, y, chk, info, ctl) -> int:
+        newton = np.array([self._newton[0], 0.0, 0.0])
+        status = _radau_adaptive_run(arr, par, self.geometric, self.predict, t0, t1, tin0, tdt, u,
+                                     eta, y, chk, info, ctl, LAM1, LAM2, TI1, TI2, V1, V2,
+                                     OFFSETS, DD, self.newton_tol, self.newton_maxit, newton)
+        self._newton[0] = newton[0]
+        self.newton_iterations += int(newton[1])
+        self.newton_failures += int(newton[2])
+        return status
+
+    def _embedded_step(self, t: float, y: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray]:
+        """One step on the dense operator from the explicit Euler guess: (new state, error
+        estimate); a step whose iteration does not converge returns an infinite estimate."""
+        yn, its, parts = _dense_radau_attempt(self.system, t, y, h, self.geometric, self.predict,
+                                              self.newton_tol, self.newton_maxit, self._newton)
+        self.newton_iterations += its
+        if yn is None:
+            self.newton_failures += 1
+            return y, np.full(y.shape, np.inf)
+        n1 = self.system.model.ndof
+        err = _dense_radau_error(self.system, y, h, parts, np.concatenate([y[n1:], parts[5]]))
+        arr, _ = fast.pack_arrays(self.system.model)
+        if err_norm(arr, y, yn, err, self.atol, self.rtol) > 1.0:  # refine at y + err
+            ye = y + err
+            acc = self.system.accelerations(t, ye)[0]
+            self.system.nfev += 1
+            err = _dense_radau_error(self.system, y, h, parts, np.concatenate([ye[n1:], acc]))
+        return yn, err
+
+
+__all__ = ["A", "C", "LAM1", "LAM2", "OFFSETS", "TI1", "TI2", "V1", "V2", "RadauIIA",
+           "RadauIIAAdaptive"]

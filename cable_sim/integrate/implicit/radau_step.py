@@ -95,12 +95,13 @@ def radau_workspace(n: int) -> tuple:
     """Scratch of :func:`_radau_step` for n links: the real factorisation's
     (:func:`cable_sim.integrate.implicit.run.factor_workspace`), the complex one's ``Wc, Sc,
     Xc``, stage increments ``Zq, Zv`` (3, n+1), stage slopes ``Fq, Fv`` (3, n+1), real rows
-    (9, n+1; the last holds the anchor reaction) and complex rows (5, n+1)."""
+    (10, n+1; row 8 holds the anchor reaction, row 9 the accelerations at the step's start)
+    and complex rows (5, n+1)."""
     n1 = n + 1
     return (factor_workspace(n), np.zeros((_NW, n), dtype=np.complex128),
             np.zeros(_NS, dtype=np.complex128), np.zeros((2, n1), dtype=np.complex128),
             np.zeros((3, n1)), np.zeros((3, n1)), np.zeros((3, n1)), np.zeros((3, n1)),
-            np.zeros((9, max(n1, 2))), np.zeros((5, n1), dtype=np.complex128))
+            np.zeros((10, max(n1, 2))), np.zeros((5, n1), dtype=np.complex128))
 
 
 @nb.njit(cache=True, inline="always")
@@ -144,9 +145,11 @@ def _radau_step(arr: np.ndarray, par: np.ndarray, geometric: bool, predict: bool
     ``ratio`` times as long; the initial guess extrapolates its collocation polynomial
     (Hairer & Wanner IV.8). Otherwise (0) the guess is the explicit Euler increments.
     ``newton[0]``: the contraction estimate ``eta`` of the last converged iteration (updated;
-    :func:`newton_verdict`). Returns ``_STEP_OK``, ``_STEP_NO_CONVERGENCE`` or
-    ``_STEP_SINGULAR``; ``info[0]`` counts the force evaluations, ``info[3]`` the Newton
-    iterations (``info`` as in :func:`_radau_fixed_run`)."""
+    :func:`newton_verdict`). On return the factorisations, the stage increments and (row 9 of
+    the real rows) the accelerations at y stay in ``ws`` for the error estimate of
+    :mod:`cable_sim.integrate.implicit.radau_adaptive`. Returns ``_STEP_OK``,
+    ``_STEP_NO_CONVERGENCE`` or ``_STEP_SINGULAR``; ``info[0]`` counts the force evaluations,
+    ``info[3]`` the Newton iterations (``info`` as in :func:`_radau_fixed_run`)."""
     n1 = y.shape[0] // 2
     fs, Wc, Sc, Xc, Zq, Zv, Fq, Fv, wk, cw = ws
     fw, jw, F, kgeo, W, S, X = fs
@@ -164,8 +167,10 @@ def _radau_step(arr: np.ndarray, par: np.ndarray, geometric: bool, predict: bool
     if not fd_packed_ws(arr, par, us[0], es[0], q, v, acc, lam, fw):
         return _STEP_SINGULAR
     info[0] += 1
+    acc0 = wk[9]  # kept for the error estimate (radau_adaptive)
     for j in range(n1):
         vp[j] = v[j] + h * acc[j] if predict else v[j]
+        acc0[j] = acc[j]
     hg1 = h / lam1
     hg2 = h / lam2
     if not _factor_at(arr, par, geometric, hg1, q, v, acc, lam, vp, fw, jw, F, kgeo, W, S, X, h):

@@ -17,7 +17,7 @@ from cable_sim.core.system import CableSystem
 from cable_sim.integrate.base import Integrator
 from cable_sim.integrate.implicit.dense import _dense_solve, dense_operator
 from cable_sim.integrate.implicit.operator import geometric_stiffness
-from cable_sim.integrate.implicit.radau import RadauIIA
+from cable_sim.integrate.implicit.radau import RadauIIA, RadauIIAAdaptive
 from cable_sim.integrate.implicit.ros34 import Ros34PW2, Ros34PW2Adaptive
 from cable_sim.integrate.implicit.ros34prw import Ros34PRw, Ros34PRwAdaptive
 from cable_sim.integrate.implicit.run import _implicit_run
@@ -172,4 +172,5 @@ INTEGRATORS: dict[str, type[Integrator]] = {
     "ros34prw_adaptive": Ros34PRwAdaptive,
     "w6s4os": W6S4OS,
     "radau_iia": RadauIIA,
+    "radau_iia_adaptive": RadauIIAAdaptive,
 }
