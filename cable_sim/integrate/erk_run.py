@@ -34,7 +34,8 @@ from cable_sim.integrate.step_control import (
     clip_step,
     err_norm_ws,
     interp_input,
-    rejected_step,
+    rejection,
+    scale_allowances,
 )
 
 
@@ -188,7 +189,7 @@ def erk_adaptive_run(arr: np.ndarray, par: np.ndarray, t0: float, t1: float, tin
     ws = fd_workspace(arr.shape[1])
     cth, sth = fd_trig(ws, arr.shape[1])
     ewk = np.empty((ERR_ROWS, arr.shape[1]))
-    atol, rtol, hmax, hmin = ctl[0], ctl[1], ctl[5], ctl[6]
+    atol, rtol, hmax = ctl[0], ctl[1], ctl[5]
     reuse = fsal and par[10] == 0.0  # an anchored state is projected by the check: no reuse
     if uin.shape[0] > 1 and np.all(uin == uin[0]):  # a constant input: no interpolation
         uin = uin[:1]
@@ -208,16 +209,11 @@ def erk_adaptive_run(arr: np.ndarray, par: np.ndarray, t0: float, t1: float, tin
             link_trig(yn, cth, sth)  # for the error norm, the check and (FSAL) the next step
             en = err_norm_ws(arr, y, yn, err, atol, rtol, cth, sth, True, ewk)
         if not np.isfinite(en) or en > 1.0:
-            info[4] += 1
-            h = rejected_step(ctl, en, hs, k_exp)
-            if h < hmin:
-                info[3] = t
-                info[2] = h
+            h, underflow = rejection(ctl, en, hs, k_exp, t, info)
+            if underflow:
                 return STATUS_STEP_UNDERFLOW if ok else STATUS_SINGULAR
             continue
-        chk[7] = ctl[9] * hs
-        if chk.shape[0] > 10:
-            chk[10] = ctl[10] * hs
+        scale_allowances(chk, ctl, hs)
         status = check_packed_ws(arr, par, yn, chk, info, cth, sth)
         if status != STATUS_OK:
             info[3] = t + hs

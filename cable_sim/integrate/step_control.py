@@ -177,5 +177,30 @@ def accepted_step(ctl: np.ndarray, en: float, hs: float, h: float, last: bool,
     return hnew
 
 
+@nb.njit(cache=True, inline="always")
+def rejection(ctl: np.ndarray, en: float, hs: float, k_exp: float, t: float,
+              info: np.ndarray) -> tuple[float, bool]:
+    """A rejected step of ``hs`` from t with error norm ``en`` in an adaptive run: counted in
+    ``info[4]``; returns the retry step (:func:`rejected_step`) and whether it is below the floor
+    ``ctl[6]`` (then ``info[3] = t``, ``info[2]`` = that step, and the run stops)."""
+    info[4] += 1
+    h = rejected_step(ctl, en, hs, k_exp)
+    if h < ctl[6]:
+        info[3] = t
+        info[2] = h
+        return h, True
+    return h, False
+
+
+@nb.njit(cache=True, inline="always")
+def scale_allowances(chk: np.ndarray, ctl: np.ndarray, hs: float) -> None:
+    """The check's per-step allowances for an accepted adaptive step of ``hs``, in proportion to
+    it: the energy jump ``chk[7]`` and (when the check has it) the runaway floor ``chk[10]``,
+    from the rates ``ctl[9]``, ``ctl[10]``."""
+    chk[7] = ctl[9] * hs
+    if chk.shape[0] > 10:
+        chk[10] = ctl[10] * hs
+
+
 __all__ = ["STATUS_STEP_UNDERFLOW", "accepted_step", "clip_step", "ERR_ROWS", "err_norm", "err_norm_ws",
-           "interp_input", "rejected_step"]
+           "interp_input", "rejected_step", "rejection", "scale_allowances"]

@@ -47,7 +47,8 @@ from cable_sim.integrate.step_control import (
     clip_step,
     err_norm_ws,
     interp_input,
-    rejected_step,
+    rejection,
+    scale_allowances,
 )
 
 _S6 = np.sqrt(6.0)
@@ -118,7 +119,7 @@ def _radau_adaptive_run(arr: np.ndarray, par: np.ndarray, geometric: bool, predi
     eta = newton[:1]
     no_trig = np.empty(0)  # the error norm forms the links' cos/sin itself
     ewk = np.empty((ERR_ROWS, n))
-    atol, rtol, hmax, hmin = ctl[0], ctl[1], ctl[5], ctl[6]
+    atol, rtol, hmax = ctl[0], ctl[1], ctl[5]
     h = min(ctl[7], hmax)
     hprev = 0.0  # the last accepted step; 0: none in this call
     t = t0
@@ -156,16 +157,11 @@ def _radau_adaptive_run(arr: np.ndarray, par: np.ndarray, geometric: bool, predi
         info[0] += cnt[0]
         newton[1] += cnt[3]
         if not np.isfinite(en) or en > 1.0:
-            info[4] += 1
-            h = rejected_step(ctl, en, hs, _K_EXP)
-            if h < hmin:
-                info[3] = t
-                info[2] = h
+            h, underflow = rejection(ctl, en, hs, _K_EXP, t, info)
+            if underflow:
                 return STATUS_STEP_UNDERFLOW
             continue
-        chk[7] = ctl[9] * hs
-        if chk.shape[0] > 10:
-            chk[10] = ctl[10] * hs
+        scale_allowances(chk, ctl, hs)
         status = check_packed(arr, par, yn, chk, info)
         if status != STATUS_OK:
             info[3] = t + hs

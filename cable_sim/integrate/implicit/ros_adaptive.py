@@ -20,7 +20,8 @@ from cable_sim.integrate.step_control import (
     clip_step,
     err_norm_ws,
     interp_input,
-    rejected_step,
+    rejection,
+    scale_allowances,
 )
 
 #: 1 / (embedded order + 1): the exponent of the step-size controller (embedded order 2).
@@ -46,7 +47,7 @@ def _ros_adaptive_run(arr: np.ndarray, par: np.ndarray, geometric: bool, predict
     es = np.empty(ns)
     no_trig = np.empty(0)  # the error norm forms the links' cos/sin itself
     ewk = np.empty((ERR_ROWS, arr.shape[1]))
-    atol, rtol, hmax, hmin = ctl[0], ctl[1], ctl[5], ctl[6]
+    atol, rtol, hmax = ctl[0], ctl[1], ctl[5]
     h = min(ctl[7], hmax)
     t = t0
     while t < t1:
@@ -60,16 +61,11 @@ def _ros_adaptive_run(arr: np.ndarray, par: np.ndarray, geometric: bool, predict
         info[0] += ns
         en = err_norm_ws(arr, y, yn, err, atol, rtol, no_trig, no_trig, False, ewk) if ok else np.inf
         if not np.isfinite(en) or en > 1.0:
-            info[4] += 1
-            h = rejected_step(ctl, en, hs, _K_EXP)
-            if h < hmin:
-                info[3] = t
-                info[2] = h
+            h, underflow = rejection(ctl, en, hs, _K_EXP, t, info)
+            if underflow:
                 return STATUS_STEP_UNDERFLOW
             continue
-        chk[7] = ctl[9] * hs
-        if chk.shape[0] > 10:
-            chk[10] = ctl[10] * hs
+        scale_allowances(chk, ctl, hs)
         status = check_packed(arr, par, yn, chk, info)
         if status != STATUS_OK:
             info[3] = t + hs
