@@ -286,3 +286,18 @@ def test_adaptive_parameters_are_named() -> None:
                      ({"newton_tol": 0.0}, "newton_tol"), ({"newton_maxit": 1}, "newton_maxit")):
         with pytest.raises(ValueError, match=f"parameter '{name}'"):
             make_integrator("radau_iia_adaptive", scene.system(model=model), 0.5, **kw)
+
+
+@pytest.mark.parametrize("name", ["radau_iia", "radau_iia_adaptive"])
+def test_warm_up_is_not_counted(name: str) -> None:
+    """The once-per-process warm-up (a step of a 2-link model at construction) leaves the
+    Newton counters of a new integrator at zero."""
+    from cable_sim.integrate.base import _WARMED
+    from cable_sim.integrate.registry import INTEGRATORS
+
+    scene, model, _ = _free_fall(4)
+    _WARMED.discard(INTEGRATORS[name])
+    integ = make_integrator(name, scene.system(model=model), 0.05)
+    assert INTEGRATORS[name] in _WARMED  # the warm-up ran
+    assert integ.newton_iterations == 0 and integ.newton_failures == 0
+    assert integ._newton[0] == 1.0

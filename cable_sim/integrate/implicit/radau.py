@@ -222,6 +222,16 @@ class RadauIIA(Integrator):
         self.predict = bool(predict_drag)
         super().__init__(system, step=step, **kwargs)
 
+    def _warm(self) -> None:
+        self._uncounted(super()._warm)
+
+    def _uncounted(self, warm) -> None:
+        """Run ``warm`` (the base class's compile-and-run of a 2-link model, once per process)
+        without adding its Newton iterations to this integrator's counters."""
+        counts = (self.newton_iterations, self.newton_failures, float(self._newton[0]))
+        warm()
+        self.newton_iterations, self.newton_failures, self._newton[0] = counts
+
     def _fast_kernel(self, arr, par, h, u, eta, y, chk, info) -> int:
         ext = np.zeros(5)  # info and the Newton counters (see _radau_fixed_run)
         ext[:3] = info[:3]
@@ -304,6 +314,9 @@ class RadauIIAAdaptive(AdaptiveStepping, RadauIIA):
             rtol = kwargs.get("rtol", 0.0)
             newton_tol = min(1e-6, 0.01 * (min(atol, rtol) if rtol > 0.0 else atol))
         super().__init__(system, step=step, newton_tol=newton_tol, **kwargs)
+
+    def _warm(self) -> None:
+        self._uncounted(super()._warm)
 
     def _run_adaptive(self, arr, par, t0, t1, tin0, tdt, u, eta, y, chk, info, ctl) -> int:
         newton = np.array([self._newton[0], 0.0, 0.0])
