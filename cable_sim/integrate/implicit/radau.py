@@ -297,8 +297,8 @@ class RadauIIAAdaptive(AdaptiveStepping, RadauIIA):
         See :class:`RadauIIA`; default (None) ``min(1e-6, 0.01 tol)`` with ``tol`` the smaller of
         ``atol`` and (when nonzero) ``rtol``: the iteration's error stays well below what the
         step's error estimate is held to (Hairer's RADAU5 likewise ties its Newton tolerance to
-        ``rtol``). At 1e-6 alone the free fall at n = 160 stayed 1.8e-4 m off at rtol = 1e-6
-        (``make bench``, 2026-12-03 18:59).
+        ``rtol``). At 1e-6 alone the free fall at n = 80 stayed 1.8e-4 m off at rtol = 1e-6
+        (``make bench``, 2026-12-03 18:57), with this default 2.5e-6 m (19:34).
     newton_maxit, geometric_stiffness, predict_drag, max_drift, taut_slack, max_condition, compiled
         See :class:`RadauIIA`.
     """
