@@ -29,7 +29,7 @@ Newton iteration three force evaluations, one real and one complex O(n) solve.
 real O(n) solve per step; :mod:`cable_sim.integrate.implicit.radau_adaptive`) and steps
 adaptively; a step whose iteration does not converge is then rejected and retried smaller.
 
-Integrate layer: imports numpy, :mod:`cable_sim.core` (dynamics, kernel, system),
+Integrate layer: imports numpy, :mod:`cable_sim.core` (dynamics, system),
 :mod:`cable_sim.integrate` (adaptive, base, errors, step_control) and the sibling modules
 ``dense``, ``operator``, ``radau_adaptive`` and ``radau_step``.
 """
@@ -39,7 +39,6 @@ from __future__ import annotations
 import numpy as np
 
 from cable_sim.core import dynamics
-from cable_sim.core import kernel as fast
 from cable_sim.core.system import CableSystem
 from cable_sim.integrate.adaptive import AdaptiveStepping
 from cable_sim.integrate.base import Integrator
@@ -100,13 +99,13 @@ def _dense_radau_step(system: CableSystem, t: float, y: np.ndarray, h: float, ge
     return yn, its
 
 
-def _dense_shifted_solve(model, q: np.ndarray, hg: complex, M: np.ndarray, D: np.ndarray,
+def _dense_shifted_solve(model, q: np.ndarray, hg: complex, Mt: np.ndarray, D: np.ndarray,
                          K: np.ndarray, rq: np.ndarray, rv: np.ndarray
                          ) -> tuple[np.ndarray, np.ndarray]:
-    """``(I - hg T) (sq, sv) = (rq, rv)`` with the dense operator (the compiled
-    ``radau_step._solve_shifted``)."""
+    """``(I - hg T) (sq, sv) = (rq, rv)`` with the dense operator ``Mt = M + hg D + hg^2 K``
+    (the compiled ``radau_step._solve_shifted``)."""
     rk = rq + hg * rv
-    sv = rv - _dense_solve(model, q, M + hg * D + hg * hg * K, hg * (D @ rv) + hg * (K @ rk),
+    sv = rv - _dense_solve(model, q, Mt, hg * (D @ rv) + hg * (K @ rk),
                            baumgarte_end_motion(model, q, hg, rv, rk))
     return rq + hg * sv, sv
 
@@ -114,8 +113,9 @@ def _dense_shifted_solve(model, q: np.ndarray, hg: complex, M: np.ndarray, D: np
 def _dense_radau_attempt(system: CableSystem, t: float, y: np.ndarray, h: float, geometric: bool,
                          predict: bool, tol: float, maxit: int, newton: np.ndarray
                          ) -> tuple[np.ndarray | None, int, tuple]:
-    """:func:`_dense_radau_step`, and what its error estimate needs: ``(M, D, K, Zq, Zv, a_0)``
-    (the operator's matrices, the stage increments, the accelerations at y)."""
+    """:func:`_dense_radau_step`, and what its error estimate needs: ``(Mt, D, K, Zq, Zv, a_0)``
+    (the real shifted operator ``M + hg_1 D + hg_1^2 K`` and its ``D``, ``K``, the stage
+    increments, the accelerations at y)."""
     model = system.model
     n1 = model.ndof
     q, v = y[:n1], y[n1:]
@@ -126,6 +126,7 @@ def _dense_radau_attempt(system: CableSystem, t: float, y: np.ndarray, h: float,
         kgeo = _geometric_stiffness(model, q, dynamics.joint_forces(model, q, v, acc, lam))
     M, D, K = dense_operator(model, q, v + h * acc if predict else v, kgeo)
     hgs = (h / LAM1, h / LAM2)
+    ops = [M + hg * D + hg * hg * K for hg in hgs]  # once per step
     Zq = np.outer(C * h, v)
     Zv = np.outer(C * h, acc)
     scq = tol * (1.0 + np.abs(q))
@@ -138,9 +139,9 @@ def _dense_radau_attempt(system: CableSystem, t: float, y: np.ndarray, h: float,
         for i in range(3):
             Fv[i] = system.accelerations(t + C[i] * h, np.concatenate([q + Zq[i], v + Zv[i]]))[0]
             system.nfev += 1
-        dW = [_dense_shifted_solve(model, q, hg, M, D, K, hg * (ti @ Fq) - ti @ Zq,
+        dW = [_dense_shifted_solve(model, q, hg, Mt, D, K, hg * (ti @ Fq) - ti @ Zq,
                                    hg * (ti @ Fv) - ti @ Zv)
-              for ti, hg in zip((TI1, TI2), hgs, strict=True)]
+              for ti, hg, Mt in zip((TI1, TI2), hgs, ops, strict=True)]
         dq = np.outer(V1, dW[0][0]) + (2.0 * np.outer(V2, dW[1][0])).real
         dv = np.outer(V1, dW[0][1]) + (2.0 * np.outer(V2, dW[1][1])).real
         Zq += dq
@@ -149,7 +150,7 @@ def _dense_radau_attempt(system: CableSystem, t: float, y: np.ndarray, h: float,
         verdict, eta = newton_verdict(it, big, prev, eta, maxit)
         if verdict == NEWTON_CONVERGED:
             newton[0] = eta
-            return np.concatenate([q + Zq[2], v + Zv[2]]), it + 1, (M, D, K, Zq, Zv, acc)
+            return np.concatenate([q + Zq[2], v + Zv[2]]), it + 1, (ops[0], D, K, Zq, Zv, acc)
         if verdict == NEWTON_FAILED:
             return None, it + 1, ()
         prev = big
@@ -161,10 +162,10 @@ def _dense_radau_error(system: CableSystem, y: np.ndarray, h: float, parts: tupl
     """The error estimate of :mod:`cable_sim.integrate.implicit.radau_adaptive` with the dense
     operator: ``(I - hg_1 T)^-1 (hg_1 f + gamma_0 sum_i d_i Z_i)`` for the step whose
     :func:`_dense_radau_attempt` gave ``parts``, with the slope ``f`` (2(n+1))."""
-    M, D, K, Zq, Zv, _ = parts
+    Mt, D, K, Zq, Zv, _ = parts
     n1 = system.model.ndof
     hg = h / LAM1
-    sq, sv = _dense_shifted_solve(system.model, y[:n1], hg, M, D, K,
+    sq, sv = _dense_shifted_solve(system.model, y[:n1], hg, Mt, D, K,
                                   hg * f[:n1] + (DD @ Zq) / LAM1, hg * f[n1:] + (DD @ Zv) / LAM1)
     return np.concatenate([sq, sv])
 
@@ -309,11 +310,11 @@ class RadauIIAAdaptive(AdaptiveStepping, RadauIIA):
 
     def __init__(self, system: CableSystem, step: float = 1e-2, newton_tol: float | None = None,
                  **kwargs) -> None:
-        if newton_tol is None:
-            atol = kwargs.get("atol", 1e-3)
-            rtol = kwargs.get("rtol", 0.0)
-            newton_tol = min(1e-6, 0.01 * (min(atol, rtol) if rtol > 0.0 else atol))
-        super().__init__(system, step=step, newton_tol=newton_tol, **kwargs)
+        super().__init__(system, step=step,
+                         newton_tol=1e-6 if newton_tol is None else newton_tol, **kwargs)
+        if newton_tol is None:  # from the validated tolerances
+            tol = min(self.atol, self.rtol) if self.rtol > 0.0 else self.atol
+            self.newton_tol = min(1e-6, 0.01 * tol)
 
     def _warm(self) -> None:
         self._uncounted(super()._warm)
@@ -339,8 +340,7 @@ class RadauIIAAdaptive(AdaptiveStepping, RadauIIA):
             return y, np.full(y.shape, np.inf)
         n1 = self.system.model.ndof
         err = _dense_radau_error(self.system, y, h, parts, np.concatenate([y[n1:], parts[5]]))
-        arr, _ = fast.pack_arrays(self.system.model)
-        if err_norm(arr, y, yn, err, self.atol, self.rtol) > 1.0:  # refine at y + err
+        if err_norm(self._fast_model()[0], y, yn, err, self.atol, self.rtol) > 1.0:  # refine
             ye = y + err
             acc = self.system.accelerations(t, ye)[0]
             self.system.nfev += 1

@@ -136,9 +136,9 @@ def _radau_adaptive_run(arr: np.ndarray, par: np.ndarray, geometric: bool, predi
         cnt[:] = 0.0
         res = _radau_step(arr, par, geometric, predict, hs, us, es, y, yn, ws, lam1, lam2, ti1,
                           ti2, v1, v2, offsets, tol, maxit, cnt, ratio, eta)
+        info[0] += cnt[0]
+        newton[1] += cnt[3]
         if res == _STEP_SINGULAR:
-            info[0] += cnt[0]
-            newton[1] += cnt[3]
             info[3] = t
             return STATUS_SINGULAR
         en = np.inf
@@ -149,13 +149,11 @@ def _radau_adaptive_run(arr: np.ndarray, par: np.ndarray, geometric: bool, predi
                 for j in range(2 * n1):
                     ye[j] = y[j] + err[j]
                 if fd_packed_ws(arr, par, us[0], es[0], ye[:n1], ye[n1:], acc, lam, fw):
-                    cnt[0] += 1
+                    info[0] += 1
                     _radau_error(arr, par, hs, lam1, dd, ye[n1:], acc, ws, err)
                     en = err_norm_ws(arr, y, yn, err, atol, rtol, no_trig, no_trig, False, ewk)
         else:
             newton[2] += 1
-        info[0] += cnt[0]
-        newton[1] += cnt[3]
         if not np.isfinite(en) or en > 1.0:
             h, underflow = rejection(ctl, en, hs, _K_EXP, t, info)
             if underflow:
