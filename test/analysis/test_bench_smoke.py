@@ -442,6 +442,28 @@ def test_slope_rows_report_the_large_n_slope() -> None:
     assert "alone" not in _slope_rows(whole)[0]["detail"]
 
 
+def test_slope_rows_report_a_drag_variant_beside_its_scene() -> None:
+    """The Morison free fall's slopes appear in the paper free fall's slope row (and in no other
+    row, and not as a target of their own); one measured n (nan slope) adds nothing."""
+    from cable_sim.analysis.bench.cost import LARGE_N_SLOPE_N, slopes
+    from cable_sim.analysis.bench.targets import MORISON_LABEL, _slope_rows
+
+    ns = [40, 80, 160, 320, 640]
+    rows = [dict(scene=MORISON_LABEL, integrator="best", n=n, cost=(n / 40.0) ** 0.9) for n in ns]
+    rows += [dict(scene="paper_free_fall", integrator="best", n=n, cost=(n / 40.0) ** 1.25) for n in ns]
+    rows += [dict(scene="mooring_line", integrator="best", n=n, cost=n / 40.0) for n in ns]
+    scenes = ["paper_free_fall", "mooring_line"]
+    whole = slopes(rows, scenes)
+    variant = {MORISON_LABEL: (slopes(rows, [MORISON_LABEL])[MORISON_LABEL],
+                               slopes(rows, [MORISON_LABEL], LARGE_N_SLOPE_N)[MORISON_LABEL])}
+    free, moor = _slope_rows(whole, None, variant)
+    assert free["measured"] == pytest.approx(1.25) and not free["met"]
+    assert "Morison drag" in free["detail"] and ": 0.90 (n = 160..640: 0.90)" in free["detail"]
+    assert "Morison" not in moor["detail"] and moor["met"]
+    one_n = {MORISON_LABEL: (float("nan"), float("nan"))}
+    assert "Morison" not in _slope_rows(whole, None, one_n)[0]["detail"]
+
+
 def test_ladder_goes_past_the_floor_while_steps_are_halved() -> None:
     """A fixed-step ladder stops at the first run below the error floor that halved no step
     attempt; a run below the floor that halved some (a smaller nominal step may be cheaper)

@@ -230,23 +230,26 @@ def main(argv=None) -> int:
     write_csv(plan.out / "workprecision.csv", wp)
     disc = by_scene(plan.scenes, refs)
     write_csv(plan.out / "discretisation.csv", disc)
-    costs = cost_rows(wp, plan.scenes, plan.integs)
+    variants = tuple(sorted({r["scene"] for r in wp} - set(plan.scenes)))  # e.g. the Morison free fall
+    costs = cost_rows(wp, [*plan.scenes, *variants], plan.integs)
     fitted = slopes(costs, plan.scenes)
+    variant_slopes = {v: (slopes(costs, [v])[v], slopes(costs, [v], LARGE_N_SLOPE_N)[v]) for v in variants}
+    shown_slopes = {**fitted, **{v: s for v, (s, _) in variant_slopes.items()}}  # plot and summary
     write_csv(plan.out / "cost_vs_n.csv", costs)
     mj_rows = mujoco_step(plan, disc)
     mj_best = mujoco_best_step(plan)
     contact = contact_step(plan)
     peer = moordyn_step(plan)
-    plots(plan.out, wp, disc, costs, plan.scenes, fitted,
-          extra=tuple(sorted({r["scene"] for r in wp} - set(plan.scenes))))
+    plots(plan.out, wp, disc, costs, plan.scenes, shown_slopes, extra=variants)
     best_plot(plan.out, mj_best)
     targets = make_targets(wp, mj_best, fitted, contact=contact, peer=peer.summary,
                            realtime_csv=Path(args.realtime_csv), recorder_csv=Path(args.recorder_csv),
-                           large_n_slopes=slopes(costs, plan.scenes, LARGE_N_SLOPE_N))
+                           large_n_slopes=slopes(costs, plan.scenes, LARGE_N_SLOPE_N),
+                           variant_slopes=variant_slopes)
     write_csv(plan.out / "targets.csv", targets)
     elapsed = time.perf_counter() - plan.t_start
     summary = make_summary(argv if argv is not None else sys.argv[1:], plan.kernel, plan.why, plan.integs,
-                           args, wp, disc, costs, fitted, mj_rows, targets, elapsed,
+                           args, wp, disc, costs, shown_slopes, mj_rows, targets, elapsed,
                            contact=contact, peer=peer.summary, mj_best=mj_best)
     (plan.out / "summary.md").write_text(summary)
     print(summary)

@@ -107,7 +107,8 @@ def _cost(plt, out: Path, cost_rows: list[dict], scenes, slopes: dict[str, float
 def plots(out: Path, wp: list[dict], disc: list[dict], cost_rows: list[dict], scenes, slopes,
           extra: tuple[str, ...] = ()) -> None:
     """Work-precision per scene (a panel per n, a line per integrator), error vs n, cost vs n;
-    ``extra``: further row labels of ``wp`` with a work-precision plot only (e.g. a drag variant)."""
+    ``extra``: further row labels of ``wp`` (e.g. a drag variant), with a work-precision plot and,
+    where ``cost_rows`` has them, a line in the cost plot (``slopes`` may have theirs)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -120,4 +121,4 @@ def plots(out: Path, wp: list[dict], disc: list[dict], cost_rows: list[dict], sc
     if disc:
         _discretisation(plt, out, disc)
     if cost_rows:
-        _cost(plt, out, cost_rows, scenes, slopes)
+        _cost(plt, out, cost_rows, [*scenes, *extra], slopes)

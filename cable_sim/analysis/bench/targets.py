@@ -107,13 +107,41 @@ def _adaptive_mean_step(wp: list[dict], n: int) -> str:
             f"({steps} accepted steps)")
 
 
-def _slope_rows(slopes: dict[str, float], large_n: dict[str, float] | None = None) -> list[dict]:
-    """One row per scene; ``large_n``: the slope over n = 160..640 alone, in the detail."""
+#: What a drag variant's cost slope, reported in its scene's slope row, shows.
+VARIANT_SLOPE_NOTE = {
+    MORISON_LABEL: "the same free fall with Morison drag (per unit length, so the same line at "
+                   "every n; the paper's drag, a coefficient gamma l^2/4 per link, gives the line a "
+                   "total drag falling as 1/n and a per-link stiffness rising with n, so with it the "
+                   "problem itself changes with n)",
+}
+
+
+def _variant_detail(scene: str, variants: dict[str, tuple[float, float]]) -> str:
+    """The detail's part on the drag variants of ``scene`` (labels ``scene+...``) whose slope
+    over n = 40..640 was measured: ``variants[label] = (slope 40..640, slope 160..640)``."""
+    out = ""
+    for label, (whole, large) in sorted(variants.items()):
+        if label.split("+")[0] != scene or not math.isfinite(whole):
+            continue
+        out += f"; {VARIANT_SLOPE_NOTE.get(label, label)}: {whole:.2f}"
+        if math.isfinite(large):
+            out += f" (n = 160..640: {large:.2f})"
+        out += f", rows {label} in cost_vs_n.csv"
+    return out
+
+
+def _slope_rows(slopes: dict[str, float], large_n: dict[str, float] | None = None,
+                variants: dict[str, tuple[float, float]] | None = None) -> list[dict]:
+    """One row per scene; ``large_n``: the slope over n = 160..640 alone, in the detail;
+    ``variants``: the two slopes of each drag variant measured at several n (label
+    ``scene+drag``, e.g. :data:`MORISON_LABEL`), in its scene's detail (not a target)."""
     large_n = large_n or {}
+    variants = variants or {}
     return [_row(f"{scene}: slope of cost per simulated s vs n at <= 1 cm, n = 40..640", s,
                  f"<= {GOAL_SLOPE:g}", "log-log least-squares fit of the cheapest run within 1 cm per n"
                  + (f"; over n = 160..640 alone: {large_n[scene]:.2f}"
-                    if math.isfinite(large_n.get(scene, float("nan"))) else ""))
+                    if math.isfinite(large_n.get(scene, float("nan"))) else "")
+                 + _variant_detail(scene, variants))
             for scene, s in slopes.items()]
 
 
@@ -231,15 +259,17 @@ def contact_target(contact: list[dict]) -> dict:
 
 def make_targets(wp: list[dict], mj_best: list[dict], slopes: dict, contact: list[dict] | None = None,
                  peer: list[dict] | None = None, realtime_csv: Path | None = None,
-                 recorder_csv: Path | None = None, large_n_slopes: dict | None = None) -> list[dict]:
+                 recorder_csv: Path | None = None, large_n_slopes: dict | None = None,
+                 variant_slopes: dict | None = None) -> list[dict]:
     """Issue #13's targets, one row each (see the module docstring); ``large_n_slopes``: the
-    cost slopes over n = 160..640 alone, reported in the slope rows' detail."""
+    cost slopes over n = 160..640 alone, reported in the slope rows' detail; ``variant_slopes``:
+    the drag variants' two slopes, reported there too (:func:`_slope_rows`)."""
     rows = [_rtf_target(wp, "paper_free_fall", 80, GOAL_RTF_80, "paper drag (paper_free_fall)"),
             _rtf_target(wp, MORISON_LABEL, 80, GOAL_RTF_80_MORISON,
                         "Morison drag (paper_free_fall, drag_model morison)")]
     rows += [_step_target(wp, n, g) for n, g in GOAL_STEP.items()]
     rows.append(_rtf_target(wp, "paper_free_fall", 2000, GOAL_RTF_2000, "paper drag, free fall"))
-    rows += _slope_rows(slopes, large_n_slopes)
+    rows += _slope_rows(slopes, large_n_slopes, variant_slopes)
     rows.append(_mujoco_target(mj_best))
     rows.append(realtime_target(realtime_csv) if realtime_csv else
                 _row("node at n=2000, real time, recording on: overruns over 60 s", float("nan"),
