@@ -89,7 +89,8 @@ def parse_args(argv=None) -> argparse.Namespace:
                          "within 1 cm (default 80; --quick 6)")
     ap.add_argument("--morison-n", nargs="*", type=int, default=None,
                     help="n of the paper free fall with Morison drag (work-precision rows labelled "
-                         f"{MORISON_LABEL}; default 80, --quick 8; none: skipped)")
+                         f"{MORISON_LABEL}; default 80, --quick 8; none: skipped; with several n in "
+                         "40..640 its cost slope is reported beside the paper free fall's)")
     ap.add_argument("--large-n-from", type=int, default=10**9,
                     help="from this n on only --large-n-integrators run (default: no restriction)")
     ap.add_argument("--large-n-integrators", nargs="+", default=list(LARGE_N_INTEGRATORS),
