@@ -33,6 +33,7 @@ from collections.abc import Iterator, Mapping, Sequence
 from pathlib import Path
 
 import rclpy
+import yaml
 
 REPO = Path(__file__).resolve().parent.parent
 CONFIG = REPO / "config"
@@ -176,6 +177,42 @@ def node_env(domain: int | None = None, base: Mapping[str, str] | None = None) -
                 ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
 
 
+#: (scene, overrides choosing kernels) whose kernels this process has compiled or loaded.
+_WARMED: set[tuple[str, tuple[tuple[str, str], ...]]] = set()
+#: Node parameters that decide which compiled kernels a run needs.
+_KERNEL_KEYS = ("integrator", "kernel", "step", "position_tolerance", "tension_tolerance",
+                "tolerance_horizon")
+
+
+def warm_node_kernels(scene: str | os.PathLike[str], *overrides: str) -> None:
+    """Compile in this process (or load from the on-disk cache) the kernels a node started for
+    ``scene`` with ``overrides`` needs, once per process and configuration.
+
+    The node imports the same files as this process (:func:`node_code_path`), so it shares the
+    cache and then loads them in about a second instead of compiling them for a minute while
+    its test waits a fixed time for its first message (with a cold cache and two workers, the
+    60 s waits of test_robot_description failed). A scene the test process cannot build (a
+    fault test's bad file) is left to the node, which reports it.
+    """
+    from cable_sim.scene.scenes import load_scene
+    from cable_sim.scene.simulation import Simulation
+
+    chosen = {}
+    for item in overrides:
+        name, _, value = item.partition(":=")
+        if name in _KERNEL_KEYS:
+            chosen[name] = value
+    key = (str(scene), tuple(sorted(chosen.items())))
+    if key in _WARMED:
+        return
+    _WARMED.add(key)
+    try:
+        values = {k: yaml.safe_load(v) for k, v in chosen.items()}
+        Simulation(load_scene(scene, values)).warm_up()
+    except Exception:  # noqa: BLE001 - the node reports a scene it cannot build itself
+        return
+
+
 def start_node(scene: str | os.PathLike[str], *overrides: str, domain: int | None = None,
                cwd: Path | None = None, ros_args: Sequence[str] = (),
                executable: str | os.PathLike[str] | None = None,
@@ -188,7 +225,11 @@ def start_node(scene: str | os.PathLike[str], *overrides: str, domain: int | Non
     set on top); ``cwd`` the working directory (relative recording paths land there).
     Output (stdout and stderr) is piped as text. The process is killed and reaped after the test
     at the latest (:func:`reap_all`); use :func:`node_process` to bound it to a block.
+    The node's kernels are compiled in this process first (:func:`warm_node_kernels`) unless
+    another executable or environment is given.
     """
+    if executable is None and env is None:
+        warm_node_kernels(scene, *overrides)
     return popen(node_args(scene, *overrides, ros_args=ros_args, executable=executable), cwd=cwd,
                  env=node_env(domain, env), stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
 

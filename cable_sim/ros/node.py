@@ -62,8 +62,9 @@ class CableSimNode(Node):
         self.frame_id = self.get_parameter("frame_id").value
 
         t_build = time.perf_counter()
+        self._log_build_start()
         self.sim = Simulation(self.scene)
-        self._compile()
+        self.sim.warm_up()  # compile before real time starts
         self.build_time = time.perf_counter() - t_build
         self.h = self.sim.h
         self.steps_per_control = control_steps(self.get_parameter("control_period").value, self.h,
@@ -88,14 +89,17 @@ class CableSimNode(Node):
             self.create_timer(0.1, self.inputs.check_timeouts)
         self._log_startup()
 
-    def _compile(self) -> None:
-        """Compile the O(n) kernel and the stepper before real time starts."""
-        if self.sim.kernel == "fast":
-            from cable_sim.core import kernel as fast
-
-            fast.warmup()
-            self.sim.integrator.step(0.0, self.sim.y.copy())
-            self.sim.integrator.nsteps = 0
+    def _log_build_start(self) -> None:
+        """Say what the (possibly long, silent) build is doing before it starts: with the compiled
+        kernel, the scene's steppers are compiled on the first start after an install or an
+        upgrade (measured: 64 s on a 2-core machine for the default scene), later starts load
+        them from its cache."""
+        line = f"building scene '{self.scene.name}'"
+        if self.scene.sim["kernel"] == "fast":
+            cache = os.environ.get("NUMBA_CACHE_DIR", "the default kernel cache")
+            line += (": compiling its kernels (the first start after an install or upgrade: about "
+                     f"a minute on 2 cores) or loading them from {cache}")
+        self.get_logger().info(line)
 
     # ------------------------------------------------------------------ views used by tests and tools
     @property
@@ -148,7 +152,8 @@ class CableSimNode(Node):
             f"simulating scene '{sim.scene.name}': n = {m.n} links, end = {m.params.end_condition}, "
             f"terms = [{', '.join(m.terms())}], integrator = {sim.integrator.name}, step = {self.h:g} s, "
             f"kernel = {sim.kernel}, clock = {self.clock_mode}, rates js/markers/tension/line_tension/diag = "
-            f"{rates} Hz, duration = {duration if duration > 0 else 'unbounded'}, {rec}"
+            f"{rates} Hz, duration = {duration if duration > 0 else 'unbounded'}, {rec}; "
+            f"built in {self.build_time:.1f} s"
         )
         if sim.choice is not None:
             line += f"; chosen for the scene's tolerance: {sim.choice.reason}"

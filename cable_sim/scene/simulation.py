@@ -188,6 +188,24 @@ class Simulation:
         self.held_wave_elevation = 0.0
         self.integrator.reset_energy_budget(self.y)
 
+    def warm_up(self) -> None:
+        """Compile (or load from the on-disk kernel cache) every compiled kernel a run of this
+        simulation calls -- forward dynamics, energy, joint forces and the integrator's stepper --
+        without advancing it, so that the first real step is not a compile.
+
+        The first call after an install or an upgrade compiles (about a minute for the default
+        scene on a 2-core machine, most of it the stepper); later processes load the kernels from
+        the cache in about a second. Nothing to do on the dense kernel.
+        """
+        if self.kernel != "fast":
+            return
+        from cable_sim.core.kernel.startup import warmup
+
+        warmup()
+        steps = self.integrator.nsteps
+        self.integrator.step(0.0, self.y.copy())
+        self.integrator.nsteps = steps
+
     @property
     def held_heave_force(self) -> float:
         """The held (topic) heave force [N] added to the built-in source."""

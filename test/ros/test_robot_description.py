@@ -76,15 +76,27 @@ def _qos_of(entry: dict) -> dict:
     return entry.get("qos", DOC["qos"])
 
 
+def _topic(entry: dict) -> str:
+    return entry["topic"] if entry["topic"].startswith("/") else "/" + entry["topic"]
+
+
+def _node_publishers(node, topic: str) -> list:
+    return [i for i in node.get_publishers_info_by_topic(topic) if i.node_name == "cable_sim_node"]
+
+
 def test_every_output_has_the_documented_qos(graph):
-    node, ex, _, _ = graph
+    node, ex, _, proc = graph
+    # discovery fills the graph in the background; on a loaded machine it can lag the first messages
+    expected = [_topic(e) for e in DOC["publications"] if _topic(e) != "/clock"]
+    spin_until(ex, lambda: all(len(_node_publishers(node, t)) == 1 for t in expected), 20.0)
+    assert proc.poll() is None, f"the node exited ({proc.returncode})"
     # the graph reports reliability and durability of remote endpoints (not history and depth)
     rel = {ReliabilityPolicy.RELIABLE: "reliable", ReliabilityPolicy.BEST_EFFORT: "best_effort"}
     dur = {DurabilityPolicy.VOLATILE: "volatile", DurabilityPolicy.TRANSIENT_LOCAL: "transient_local"}
     checked = 0
     for entry in DOC["publications"]:
-        topic = entry["topic"] if entry["topic"].startswith("/") else "/" + entry["topic"]
-        infos = [i for i in node.get_publishers_info_by_topic(topic) if i.node_name == "cable_sim_node"]
+        topic = _topic(entry)
+        infos = _node_publishers(node, topic)
         if topic == "/clock":  # realtime: no /clock
             assert infos == []
             continue
