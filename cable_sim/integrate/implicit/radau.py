@@ -129,8 +129,8 @@ def _dense_radau_attempt(system: CableSystem, t: float, y: np.ndarray, h: float,
     ops = [M + hg * D + hg * hg * K for hg in hgs]  # once per step
     Zq = np.outer(C * h, v)
     Zv = np.outer(C * h, acc)
-    scq = tol * (1.0 + np.abs(q))
-    scv = tol * (1.0 + np.abs(v))
+    scale = tol * float(np.sum(model.length))
+    scv = scale + tol * np.max(np.abs(dynamics.joint_velocities(model, q, v)), axis=1)  # per joint
     prev = 0.0
     eta = max(float(newton[0]), 1e-16) ** 0.8
     for it in range(maxit):
@@ -146,7 +146,7 @@ def _dense_radau_attempt(system: CableSystem, t: float, y: np.ndarray, h: float,
         dv = np.outer(V1, dW[0][1]) + (2.0 * np.outer(V2, dW[1][1])).real
         Zq += dq
         Zv += dv
-        big = max(float(np.max(np.abs(dq) / scq)), float(np.max(np.abs(dv) / scv)))
+        big = _joint_increment_size(model, q, v, dq, dv, scale, scv)
         verdict, eta = newton_verdict(it, big, prev, eta, maxit)
         if verdict == NEWTON_CONVERGED:
             newton[0] = eta
@@ -155,6 +155,31 @@ def _dense_radau_attempt(system: CableSystem, t: float, y: np.ndarray, h: float,
             return None, it + 1, ()
         prev = big
     return None, maxit, ()
+
+
+def _joint_increment_size(model, q: np.ndarray, v: np.ndarray, dq: np.ndarray, dv: np.ndarray,
+                          scale: float, scv: np.ndarray) -> float:
+    """The compiled ``radau_step._add_increment``'s size of the stage increments ``dq, dv``
+    (3, n+1), from the joints' positions and velocities linearised at (q, v): the largest
+    change of a joint-position component over ``scale`` [m] and of a joint-velocity component
+    over ``scv`` (``scale`` plus ``tol`` times the joint's largest velocity component, per
+    joint)."""
+    th, w = q[1:], v[1:]
+    c, s, ll = np.cos(th), np.sin(th), model.length
+    big = 0.0
+    for i in range(3):
+        dth, dw = dq[i, 1:], dv[i, 1:]
+        dp = np.zeros((model.n + 1, 2))
+        dp[1:, 0] = np.cumsum(ll * c * dth)
+        dp[1:, 1] = np.cumsum(ll * s * dth)
+        dp[:, 1] += dq[i, 0]
+        dvj = np.zeros((model.n + 1, 2))
+        dvj[1:, 0] = np.cumsum(ll * (c * dw - s * w * dth))
+        dvj[1:, 1] = np.cumsum(ll * (s * dw + c * w * dth))
+        dvj[:, 1] += dv[i, 0]
+        big = max(big, float(np.max(np.abs(dp))) / scale,
+                  float(np.max(np.max(np.abs(dvj), axis=1) / scv)))
+    return big
 
 
 def _dense_radau_error(system: CableSystem, y: np.ndarray, h: float, parts: tuple,
@@ -184,13 +209,13 @@ class RadauIIA(Integrator):
     newton_tol : float
         The Newton iteration stops when its estimated distance to the solution (the last
         increment times ``theta / (1 - theta)``, ``theta`` its contraction) is at most
-        ``newton_tol (1 + |y_j|)`` in every entry (positions [m, rad], velocities [m/s, rad/s]);
-        default 1e-6. Hairer's RADAU5 stops at ``min(0.03, sqrt(r))`` times its error tolerance
-        (``r = 0.1 rtol^(2/3)``; RMS norm): 3e-5 to 3e-6 for rtol = 1e-3 to 1e-4, where the
-        adaptive schemes here are within 1 cm. Measured on the paper free fall (README, "Radau
-        IIA's Newton tolerance"): against 1e-8, 25-45 % less wall time, the error within 15 %
-        below the largest step within 1 cm, up to twice as large at that step (fewer attempts
-        halved).
+        ``newton_tol L`` [m] in every joint-position component and ``newton_tol L / (1 s) +
+        |v_j|`` [m/s] in every joint-velocity component (L the line's length, ``v_j`` the joint's
+        velocity; the increments mapped to the joints as the error norm maps an error, see
+        :mod:`cable_sim.integrate.implicit.radau_step`); default 1e-7 (24 um on the 240 m paper
+        line). Measured on the paper free fall at h = 0.1 s over 31 s (README, "Radau IIA's
+        Newton tolerance"): the error at 1e-7 is that at 3e-8 within 1 % at n = 640; at 3e-7
+        it grows up to 1.7 times (n = 320).
     newton_maxit : int
         Iterations after which a step counts as not converging (then halved; also earlier when
         the increments stop shrinking or cannot reach the tolerance in time); default 10.
@@ -204,7 +229,7 @@ class RadauIIA(Integrator):
     order = 5
     _fast_offsets = tuple(float(c) for c in OFFSETS)
 
-    def __init__(self, system: CableSystem, step: float = 1e-2, newton_tol: float = 1e-6,
+    def __init__(self, system: CableSystem, step: float = 1e-2, newton_tol: float = 1e-7,
                  newton_maxit: int = 10, geometric_stiffness: bool = True,
                  predict_drag: bool = True, **kwargs) -> None:
         if not (np.isfinite(newton_tol) and 0.0 < newton_tol < 1.0):
@@ -295,11 +320,13 @@ class RadauIIAAdaptive(AdaptiveStepping, RadauIIA):
     rtol, atol, first_step, max_step, safety, fac_min, fac_max, input_spacing
         See :class:`cable_sim.integrate.adaptive.AdaptiveStepping`.
     newton_tol : float or None
-        See :class:`RadauIIA`; default (None) ``min(1e-6, 0.01 tol)`` with ``tol`` the smaller of
-        ``atol`` and (when nonzero) ``rtol``: the iteration's error stays well below what the
-        step's error estimate is held to (Hairer's RADAU5 likewise ties its Newton tolerance to
-        ``rtol``). At 1e-6 alone the free fall at n = 80 stayed 1.8e-4 m off at rtol = 1e-6
-        (``make bench``, 2026-12-03 18:57), with this default 2.5e-6 m (19:34).
+        See :class:`RadauIIA`; default (None) ``min(1e-7, 0.01 tol / L)`` with ``tol`` the smaller
+        of ``atol`` and (when nonzero) ``rtol`` and L the line's length [m]: the iteration's
+        error at the joints stays well below what the step's error estimate is held to there
+        (Hairer's RADAU5 likewise ties its Newton tolerance to ``rtol``). With the fixed-step
+        scheme's tolerance alone the free fall at n = 80 stayed 1.8e-4 m off at rtol = 1e-6
+        (``make bench``, 2026-12-03 18:57, Newton test then per entry), with a default of
+        ``0.01 tol`` 2.5e-6 m (19:34).
     newton_maxit, geometric_stiffness, predict_drag, max_drift, taut_slack, max_condition, compiled
         See :class:`RadauIIA`.
     """
@@ -311,10 +338,11 @@ class RadauIIAAdaptive(AdaptiveStepping, RadauIIA):
     def __init__(self, system: CableSystem, step: float = 1e-2, newton_tol: float | None = None,
                  **kwargs) -> None:
         super().__init__(system, step=step,
-                         newton_tol=1e-6 if newton_tol is None else newton_tol, **kwargs)
+                         newton_tol=1e-7 if newton_tol is None else newton_tol, **kwargs)
         if newton_tol is None:  # from the validated tolerances
             tol = min(self.atol, self.rtol) if self.rtol > 0.0 else self.atol
-            self.newton_tol = min(1e-6, 0.01 * tol)
+            length = float(np.sum(system.model.length))
+            self.newton_tol = min(1e-7, 0.01 * tol / length)
 
     def _warm(self) -> None:
         self._uncounted(super()._warm)

@@ -23,9 +23,11 @@ anchor's linearised Baumgarte stabilisation
 the constraint, where the forward dynamics pull back at rates ``2 alpha``, ``beta^2`` that the
 W-methods' operator leaves out.
 
-Newton's increments are measured by the largest scaled entry ``|dZ_j| / (tol (1 + |y_j|))``;
-the iteration stops when that times ``theta / (1 - theta)`` (its contraction rate, of the
-previous step in the first iteration) is at most 1, and fails when the increments stop
+Newton's increments are measured where the step's accuracy is judged, at the joints
+(:func:`_add_increment`): the largest joint-position change over ``tol L`` (L the line's
+length) and joint-velocity change over ``tol L / (1 s) + |v_j|``, per stage. The iteration
+stops when that times ``theta / (1 - theta)`` (its contraction rate, of the previous step in
+the first iteration) is at most 1, and fails when the increments stop
 shrinking or cannot reach that in ``maxit`` iterations (:func:`newton_verdict`). The
 fixed-step run then redoes the step as two halves (each factored with its own h, so that the
 drag is linearised at ``v + h_sub a``), down to ``h / 2^MAX_HALVINGS``; the halves' inputs come
@@ -46,7 +48,7 @@ from cable_sim.core.kernel.checks import STATUS_OK, STATUS_SINGULAR, check_packe
 from cable_sim.core.kernel.forward import fd_packed_ws, fd_trig
 from cable_sim.core.kernel.links import link_trig
 from cable_sim.integrate.implicit.op_factor import _op_factor_trig
-from cable_sim.integrate.implicit.op_layout import _NS, _NW
+from cable_sim.integrate.implicit.op_layout import _NS, _NW, _W_COS, _W_SIN
 from cable_sim.integrate.implicit.op_product import _dk_product
 from cable_sim.integrate.implicit.op_solve import _op_solve_stabilised
 from cable_sim.integrate.implicit.run import _factor_at, factor_workspace
@@ -95,13 +97,14 @@ def radau_workspace(n: int) -> tuple:
     """Scratch of :func:`_radau_step` for n links: the real factorisation's
     (:func:`cable_sim.integrate.implicit.run.factor_workspace`), the complex one's ``Wc, Sc,
     Xc``, stage increments ``Zq, Zv`` (3, n+1), stage slopes ``Fq, Fv`` (3, n+1), real rows
-    (10, n+1; row 8 holds the anchor reaction, row 9 the accelerations at the step's start)
-    and complex rows (5, n+1)."""
+    (10, n+1; row 8 holds the anchor reaction, row 9 the accelerations at the step's start),
+    complex rows (5, n+1) and the joint map of the Newton test (5, n+1; :func:`_joint_map`)."""
     n1 = n + 1
     return (factor_workspace(n), np.zeros((_NW, n), dtype=np.complex128),
             np.zeros(_NS, dtype=np.complex128), np.zeros((2, n1), dtype=np.complex128),
             np.zeros((3, n1)), np.zeros((3, n1)), np.zeros((3, n1)), np.zeros((3, n1)),
-            np.zeros((10, max(n1, 2))), np.zeros((5, n1), dtype=np.complex128))
+            np.zeros((10, max(n1, 2))), np.zeros((5, n1), dtype=np.complex128),
+            np.zeros((5, n1)))
 
 
 @nb.njit(cache=True, inline="always")
@@ -131,6 +134,69 @@ def _solve_shifted(arr: np.ndarray, par: np.ndarray, hg: complex, G: np.ndarray,
         rq[j] = rq[j] + hg * rv[j]
 
 
+@nb.njit(cache=True, inline="always")
+def _joint_map(l: np.ndarray, v: np.ndarray, cth: np.ndarray, sth: np.ndarray, tol: float,
+               jm: np.ndarray) -> float:
+    """What the Newton test of a step needs to map an increment of (q, v) to the joints,
+    linearised at the step's start (links' cos/sin ``cth, sth``, velocities ``v``), into ``jm``:
+    rows 0, 1 per link ``l c``, ``l s``; rows 2, 3 ``l c w``, ``l s w`` (``w`` its angular
+    velocity); row 4 per joint ``1 / (tol (L + |v_j|))`` with L the line's length (read as m/s
+    here) and ``|v_j|`` the joint velocity's largest component. Returns ``1 / (tol L)``."""
+    length = 0.0
+    for k in range(l.shape[0]):
+        length += l[k]
+    vx = 0.0
+    vz = v[0]
+    jm[4, 0] = 1.0 / (tol * (length + abs(vz)))
+    for k in range(l.shape[0]):
+        w = v[k + 1]
+        lc = l[k] * cth[k]
+        ls = l[k] * sth[k]
+        jm[0, k] = lc
+        jm[1, k] = ls
+        jm[2, k] = lc * w
+        jm[3, k] = ls * w
+        vx += lc * w
+        vz += ls * w
+        jm[4, k + 1] = 1.0 / (tol * (length + max(abs(vx), abs(vz))))
+    return 1.0 / (tol * length)
+
+
+@nb.njit(cache=True, inline="always")
+def _add_increment(zq: np.ndarray, zv: np.ndarray, a: float, b: complex, rq: np.ndarray,
+                   rv: np.ndarray, crq: np.ndarray, crv: np.ndarray, jm: np.ndarray,
+                   inv_pos: float) -> float:
+    """Add one stage's Newton increment ``a dW_1 + Re(b dW_2)`` (``dW_1 = (rq, rv)``, ``dW_2 =
+    (crq, crv)``) to its increments ``zq, zv`` and return its size at the joints (``jm``,
+    ``inv_pos``: :func:`_joint_map`): the largest joint-position component of the change times
+    ``inv_pos`` and joint-velocity component times ``jm[4, j]``, the joints' changes summed
+    along the line as the error norm sums an error
+    (:func:`cable_sim.integrate.step_control.err_norm_ws`). A change of one link's angle moves
+    the joints by its length times the change, so on a finely divided line a local correction
+    (a kink running down the line) counts for what it moves, not as a whole radian."""
+    dz0 = a * rq[0] + (b * crq[0]).real
+    dvz0 = a * rv[0] + (b * crv[0]).real
+    zq[0] += dz0
+    zv[0] += dvz0
+    big = max(abs(dz0) * inv_pos, abs(dvz0) * jm[4, 0])
+    dpx = 0.0
+    dpz = dz0
+    dvx = 0.0
+    dvz = dvz0
+    for j in range(1, zq.shape[0]):
+        dq = a * rq[j] + (b * crq[j]).real
+        dv = a * rv[j] + (b * crv[j]).real
+        zq[j] += dq
+        zv[j] += dv
+        k = j - 1
+        dpx += jm[0, k] * dq
+        dpz += jm[1, k] * dq
+        dvx += jm[0, k] * dv - jm[3, k] * dq
+        dvz += jm[1, k] * dv + jm[2, k] * dq
+        big = max(big, max(abs(dpx), abs(dpz)) * inv_pos, max(abs(dvx), abs(dvz)) * jm[4, j])
+    return big
+
+
 @nb.njit(cache=True)
 def _radau_step(arr: np.ndarray, par: np.ndarray, geometric: bool, predict: bool, h: float,
                 us: np.ndarray, es: np.ndarray, y: np.ndarray, yn: np.ndarray, ws: tuple,
@@ -151,7 +217,7 @@ def _radau_step(arr: np.ndarray, par: np.ndarray, geometric: bool, predict: bool
     ``_STEP_NO_CONVERGENCE`` or ``_STEP_SINGULAR``; ``info[0]`` counts the force evaluations,
     ``info[3]`` the Newton iterations (``info`` as in :func:`_radau_fixed_run`)."""
     n1 = y.shape[0] // 2
-    fs, Wc, Sc, Xc, Zq, Zv, Fq, Fv, wk, cw = ws
+    fs, Wc, Sc, Xc, Zq, Zv, Fq, Fv, wk, cw, jm = ws
     fw, jw, F, kgeo, W, S, X = fs
     acc = wk[0]
     vp = wk[1]
@@ -177,6 +243,7 @@ def _radau_step(arr: np.ndarray, par: np.ndarray, geometric: bool, predict: bool
         return _STEP_SINGULAR
     if not _op_factor_trig(arr, par, q, vp, hg2, kgeo, W, Wc, Sc, Xc, h):
         return _STEP_SINGULAR
+    inv_pos = _joint_map(arr[0], v, W[_W_COS], W[_W_SIN], tol, jm)
     if ratio > 0.0:
         _extrapolate(Zq, Zv, offsets, 1.0 / ratio)
     else:  # the explicit Euler increments to each stage time
@@ -213,18 +280,11 @@ def _radau_step(arr: np.ndarray, par: np.ndarray, geometric: bool, predict: bool
             crv[j] = _transformed_rhs(ti2, hg2, Fv, Zv, j)
         _solve_shifted(arr, par, hg1, W, W, S, X, rq, rv, rk, rhs, x)
         _solve_shifted(arr, par, hg2, W, Wc, Sc, Xc, crq, crv, crk, crhs, cx)
-        # Z += V dW: v1 dW1 + 2 Re(v2 dW2), and the increment's scaled size
+        # Z += V dW: v1 dW1 + 2 Re(v2 dW2), and the increment's scaled size at the joints
         big = 0.0
         for i in range(3):
-            a = v1[i]
-            b = 2.0 * v2[i]
-            for j in range(n1):
-                dq = a * rq[j] + (b * crq[j]).real
-                dv = a * rv[j] + (b * crv[j]).real
-                Zq[i, j] += dq
-                Zv[i, j] += dv
-                big = max(big, abs(dq) / (tol * (1.0 + abs(q[j]))),
-                          abs(dv) / (tol * (1.0 + abs(v[j]))))
+            big = max(big, _add_increment(Zq[i], Zv[i], v1[i], 2.0 * v2[i], rq, rv, crq, crv, jm,
+                                          inv_pos))
         verdict, eta = newton_verdict(it, big, prev, eta, maxit)
         if verdict == NEWTON_CONVERGED:
             newton[0] = eta
