@@ -209,9 +209,9 @@ class RadauIIA(Integrator):
     newton_tol : float
         The Newton iteration stops when its estimated distance to the solution (the last
         increment times ``theta / (1 - theta)``, ``theta`` its contraction) is at most
-        ``newton_tol L`` [m] in every joint-position component and ``newton_tol L / (1 s) +
-        |v_j|`` [m/s] in every joint-velocity component (L the line's length, ``v_j`` the joint's
-        velocity; the increments mapped to the joints as the error norm maps an error, see
+        ``newton_tol L`` [m] in every joint-position component and ``newton_tol (L / 1 s +
+        |v_j|)`` [m/s] in every joint-velocity component (L the line's length, ``v_j`` the
+        joint's velocity; the increments mapped to the joints as the error norm maps an error, see
         :mod:`cable_sim.integrate.implicit.radau_step`); default 1e-7 (24 um on the 240 m paper
         line). Measured on the paper free fall at h = 0.1 s over 31 s (README, "Radau IIA's
         Newton tolerance"): the error at 1e-7 is that at 3e-8 within 1 % at n = 640; at 3e-7

@@ -25,7 +25,7 @@ W-methods' operator leaves out.
 
 Newton's increments are measured where the step's accuracy is judged, at the joints
 (:func:`_add_increment`): the largest joint-position change over ``tol L`` (L the line's
-length) and joint-velocity change over ``tol L / (1 s) + |v_j|``, per stage. The iteration
+length) and joint-velocity change over ``tol (L / 1 s + |v_j|)``, per stage. The iteration
 stops when that times ``theta / (1 - theta)`` (its contraction rate, of the previous step in
 the first iteration) is at most 1, and fails when the increments stop
 shrinking or cannot reach that in ``maxit`` iterations (:func:`newton_verdict`). The
