@@ -180,7 +180,7 @@ def node_env(domain: int | None = None, base: Mapping[str, str] | None = None) -
 #: (scene, overrides choosing kernels) whose kernels this process has compiled or loaded.
 _WARMED: set[tuple[str, tuple[tuple[str, str], ...]]] = set()
 #: Node parameters that decide which compiled kernels a run needs.
-_KERNEL_KEYS = ("integrator", "kernel", "step", "position_tolerance", "tension_tolerance",
+_KERNEL_KEYS = ("integrator", "kernel", "position_tolerance", "tension_tolerance",
                 "tolerance_horizon")
 
 

@@ -136,15 +136,13 @@ def _solve_shifted(arr: np.ndarray, par: np.ndarray, hg: complex, G: np.ndarray,
 
 @nb.njit(cache=True, inline="always")
 def _joint_map(l: np.ndarray, v: np.ndarray, cth: np.ndarray, sth: np.ndarray, tol: float,
-               jm: np.ndarray) -> float:
+               length: float, jm: np.ndarray) -> float:
     """What the Newton test of a step needs to map an increment of (q, v) to the joints,
     linearised at the step's start (links' cos/sin ``cth, sth``, velocities ``v``), into ``jm``:
     rows 0, 1 per link ``l c``, ``l s``; rows 2, 3 ``l c w``, ``l s w`` (``w`` its angular
-    velocity); row 4 per joint ``1 / (tol (L + |v_j|))`` with L the line's length (read as m/s
-    here) and ``|v_j|`` the joint velocity's largest component. Returns ``1 / (tol L)``."""
-    length = 0.0
-    for k in range(l.shape[0]):
-        length += l[k]
+    velocity); row 4 per joint ``1 / (tol (L + |v_j|))`` with L = ``length``, the line's length
+    (read as m/s here), and ``|v_j|`` the joint velocity's largest component. Returns
+    ``1 / (tol L)``."""
     vx = 0.0
     vz = v[0]
     jm[4, 0] = 1.0 / (tol * (length + abs(vz)))
@@ -243,7 +241,7 @@ def _radau_step(arr: np.ndarray, par: np.ndarray, geometric: bool, predict: bool
         return _STEP_SINGULAR
     if not _op_factor_trig(arr, par, q, vp, hg2, kgeo, W, Wc, Sc, Xc, h):
         return _STEP_SINGULAR
-    inv_pos = _joint_map(arr[0], v, W[_W_COS], W[_W_SIN], tol, jm)
+    inv_pos = _joint_map(arr[0], v, W[_W_COS], W[_W_SIN], tol, par[16], jm)  # par[16]: length
     if ratio > 0.0:
         _extrapolate(Zq, Zv, offsets, 1.0 / ratio)
     else:  # the explicit Euler increments to each stage time
