@@ -2,7 +2,8 @@
 :mod:`cable_sim.integrate.implicit.operator`): the inward 3x3 articulated-inertia sweep
 (:func:`_op_inward`), the inward sweep of one right-hand side through it (:func:`_op_rhs_inward`),
 the two unit end-force solutions of the anchored end or heavy load (:func:`_op_unit_forces`) and
-the whole factorisation at a state (:func:`_op_factor`, :func:`_op_factor_trig`).
+the whole factorisation at a state (:func:`_op_factor`, :func:`_op_factor_trig`) with the
+factors its solves read (:func:`_solve_factors`).
 
 Integrate layer: imports numba, numpy, :mod:`cable_sim.core.kernel` and the siblings
 ``op_layout``, ``op_terms``.
@@ -30,6 +31,10 @@ from cable_sim.integrate.implicit.op_layout import (
     _S_MC,
     _S_MODE,
     _TWELFTH,
+    _W_AXX,
+    _W_AXZ,
+    _W_AZX,
+    _W_AZZ,
     _W_BETA,
     _W_CA,
     _W_CB,
@@ -37,6 +42,11 @@ from cable_sim.integrate.implicit.op_layout import (
     _W_D,
     _W_GE,
     _W_GT,
+    _W_GX,
+    _W_GZ,
+    _W_K,
+    _W_KX,
+    _W_KZ,
     _W_ROT,
     _W_SIN,
     _W_UX,
@@ -178,6 +188,35 @@ def _op_inward(arr: np.ndarray, G: np.ndarray, W: np.ndarray, mload: float, hg: 
 
 
 @nb.njit(cache=True, inline="always")
+def _solve_factors(l: np.ndarray, G: np.ndarray, W: np.ndarray) -> None:
+    """The per-link factors of a solve's two sweeps
+    (:func:`cable_sim.integrate.implicit.op_solve._op_solve`) into W's rows ``_W_GX`` ..
+    ``_W_AZZ``, once per factorisation: ``g = u / D``, ``k = beta / D``, ``k l t`` and the
+    entries of the affine map ``I - (l t) g^T`` that carries an end force inwards (its transpose
+    carries a pin acceleration outwards). Every solve with the factorisation reads them instead
+    of forming them again (Radau IIA: three or four solves per factorisation, the complex one
+    at four real products per complex product). ``G``: the real geometry rows."""
+    cth = G[_W_COS]
+    sth = G[_W_SIN]
+    for i in range(l.shape[0]):
+        ltx = l[i] * cth[i]
+        ltz = l[i] * sth[i]
+        inv_d = W[_W_D, i]
+        gx = W[_W_UX, i] * inv_d
+        gz = W[_W_UZ, i] * inv_d
+        k = W[_W_BETA, i] * inv_d
+        W[_W_GX, i] = gx
+        W[_W_GZ, i] = gz
+        W[_W_K, i] = k
+        W[_W_KX, i] = k * ltx
+        W[_W_KZ, i] = k * ltz
+        W[_W_AXX, i] = 1.0 - gx * ltx
+        W[_W_AXZ, i] = gx * ltz
+        W[_W_AZX, i] = gz * ltx
+        W[_W_AZZ, i] = 1.0 - gz * ltz
+
+
+@nb.njit(cache=True, inline="always")
 def _op_rhs_inward(l: np.ndarray, G: np.ndarray, W: np.ndarray, rhs: np.ndarray, use_rhs: bool,
                    bx: float, bz: float, rr: np.ndarray) -> tuple[float, float]:
     """Inward sweep of one right-hand side through a factorisation: a generalised force ``rhs``
@@ -285,6 +324,7 @@ def _op_factor_trig(arr: np.ndarray, par: np.ndarray, q: np.ndarray, qd: np.ndar
         azz = _op_inward(arr, G, W, mload, hg, True)
     else:
         azz = _op_inward(arr, G, W, mload, hg, False)
+    _solve_factors(arr[0], G, W)
     S[_S_BETA0] = hg * par[6] + (hg * hg) * par[5]
     S[_S_AZZ] = azz
     S[_S_MC] = mc

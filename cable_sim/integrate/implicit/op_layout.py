@@ -13,7 +13,11 @@ _TWELFTH = 1.0 / 12.0
 # and contact terms)
 (_W_COS, _W_SIN, _W_D, _W_UX, _W_UZ, _W_BETA, _W_ROT, _W_GT, _W_GE, _W_BCN, _W_DROT, _W_KGEO,
  _W_CA, _W_CB, _W_PX, _W_PZ) = range(16)
-_NW = 16
+# rows of the solve's factors, formed once per factorisation (see
+# op_factor._solve_factors): g = u/D (x, z), k = beta/D, k l t (x, z) and the affine map's
+# entries 1 - g_x l t_x, g_x l t_z, g_z l t_x, 1 - g_z l t_z
+(_W_GX, _W_GZ, _W_K, _W_KX, _W_KZ, _W_AXX, _W_AXZ, _W_AZX, _W_AZZ) = range(16, 25)
+_NW = 25
 # entries of the scalar workspace S
 _S_BETA0, _S_AZZ, _S_J00, _S_J01, _S_J10, _S_J11, _S_MODE, _S_MC = range(8)
 _NS = 8

@@ -27,13 +27,19 @@ from cable_sim.integrate.implicit.op_layout import (
     _S_J11,
     _S_MC,
     _S_MODE,
+    _W_AXX,
+    _W_AXZ,
+    _W_AZX,
+    _W_AZZ,
     _W_BCN,
-    _W_BETA,
     _W_COS,
     _W_D,
+    _W_GX,
+    _W_GZ,
+    _W_K,
+    _W_KX,
+    _W_KZ,
     _W_SIN,
-    _W_UX,
-    _W_UZ,
 )
 
 
@@ -42,32 +48,34 @@ def _solve_inward(l: np.ndarray, G: np.ndarray, W: np.ndarray, rhs: np.ndarray,
                   rr: np.ndarray) -> float:
     """:func:`_op_rhs_inward` of a generalised force (``-b_i`` into ``rr``; returns the
     vertical force on the platform) with the recursion written as an affine map of the state
-    ``(b_n, b_x, b_z)``: ``b = (b_n - r) + lt . (b_x, b_z)``, ``b_n' = k b``, ``(b_x, b_z)' =
-    (b_x, b_z) - g b`` (``k = beta/D``, ``g = u/D``) expanded into products of the old state
-    with factors formed off the recursion's chain (``1 - g_x l t_x``, ...), so that on the chain
-    each new entry costs two products and two sums in a tree instead of the chain through b.
-    Equal to round-off. ``G``: the real geometry rows (``G is W`` for a real ``hg``)."""
+    ``(b_n, b_x, b_z)``: with ``s = b_n - r``, ``b = s + lt . (b_x, b_z)``, ``b_n' = k b``,
+    ``(b_x, b_z)' = (b_x, b_z) - g b`` (``k = beta/D``, ``g = u/D``) expanded into products of
+    the old state with the factorisation's factors (:func:`~.op_factor._solve_factors`:
+    ``k l t``, ``1 - g_x l t_x``, ...), so that on the chain each new entry costs three
+    products and two sums in a tree instead of the chain through b. Equal to round-off.
+    ``G``: the real geometry rows (``G is W`` for a real ``hg``)."""
     cth = G[_W_COS]
     sth = G[_W_SIN]
-    idd = W[_W_D]
-    uxa = W[_W_UX]
-    uza = W[_W_UZ]
-    beta = W[_W_BETA]
+    gxa = W[_W_GX]
+    gza = W[_W_GZ]
+    ka = W[_W_K]
+    kxa = W[_W_KX]
+    kza = W[_W_KZ]
+    axx = W[_W_AXX]
+    axz = W[_W_AXZ]
+    azx = W[_W_AZX]
+    azz = W[_W_AZZ]
     bn = 0.0
     bx = 0.0
     bz = 0.0
     for i in range(l.shape[0] - 1, -1, -1):
         ltx = l[i] * cth[i]
         ltz = l[i] * sth[i]
-        inv_d = idd[i]
-        gx = uxa[i] * inv_d
-        gz = uza[i] * inv_d
-        k = beta[i] * inv_d
-        r = rhs[i + 1]
-        rr[i] = -((bn - r) + (ltx * bx + ltz * bz))
-        bn_new = (k * ltx * bx + k * ltz * bz) + k * (bn - r)
-        bx_new = ((1.0 - gx * ltx) * bx - (gx * ltz) * bz) - gx * (bn - r)
-        bz = ((1.0 - gz * ltz) * bz - (gz * ltx) * bx) - gz * (bn - r)
+        s = bn - rhs[i + 1]
+        rr[i] = -(s + (ltx * bx + ltz * bz))
+        bn_new = (kxa[i] * bx + kza[i] * bz) + ka[i] * s
+        bx_new = (axx[i] * bx - axz[i] * bz) - gxa[i] * s
+        bz = (azz[i] * bz - azx[i] * bx) - gza[i] * s
         bx = bx_new
         bn = bn_new
     return bz
@@ -80,14 +88,21 @@ def _solve_outward(l: np.ndarray, G: np.ndarray, W: np.ndarray, rr: np.ndarray, 
     acceleration), as :func:`cable_sim.core.kernel.sweeps.outward_sweep` with the armature
     (no velocity terms) but written as an affine map of the state ``(alpha, a_x, a_z)``:
     ``alpha' = R/D + k alpha - g . a``, ``a' = a + l t alpha'`` expanded so that the new pin
-    acceleration is formed from the old state directly (factors ``1 - l t_x g_x``, ``l t k``,
-    ... off the chain), not through ``alpha'``. Equal to round-off."""
+    acceleration is formed from the old state directly with the factorisation's factors
+    (:func:`~.op_factor._solve_factors`; the map of ``a`` is the transpose of the inward
+    sweep's), not through ``alpha'``. Equal to round-off."""
     cth = G[_W_COS]
     sth = G[_W_SIN]
     idd = W[_W_D]
-    uxa = W[_W_UX]
-    uza = W[_W_UZ]
-    beta = W[_W_BETA]
+    gxa = W[_W_GX]
+    gza = W[_W_GZ]
+    ka = W[_W_K]
+    kxa = W[_W_KX]
+    kza = W[_W_KZ]
+    axx = W[_W_AXX]
+    axz = W[_W_AXZ]
+    azx = W[_W_AZX]
+    azz = W[_W_AZZ]
     x[0] = zdd
     ap = 0.0
     apx = 0.0
@@ -95,15 +110,11 @@ def _solve_outward(l: np.ndarray, G: np.ndarray, W: np.ndarray, rr: np.ndarray, 
     for i in range(l.shape[0]):
         ltx = l[i] * cth[i]
         ltz = l[i] * sth[i]
-        inv_d = idd[i]
-        gx = uxa[i] * inv_d
-        gz = uza[i] * inv_d
-        k = beta[i] * inv_d
-        rd = rr[i] * inv_d
-        alpha = (rd + k * ap) - (gx * apx + gz * apz)
+        rd = rr[i] * idd[i]
+        alpha = (rd + ka[i] * ap) - (gxa[i] * apx + gza[i] * apz)
         x[i + 1] = alpha
-        ax_new = (ltx * rd + (ltx * k) * ap) + ((1.0 - ltx * gx) * apx - (ltx * gz) * apz)
-        apz = (ltz * rd + (ltz * k) * ap) + ((1.0 - ltz * gz) * apz - (ltz * gx) * apx)
+        ax_new = (ltx * rd + kxa[i] * ap) + (axx[i] * apx - azx[i] * apz)
+        apz = (ltz * rd + kza[i] * ap) + (azz[i] * apz - axz[i] * apx)
         apx = ax_new
         ap = alpha
     return apx, apz
