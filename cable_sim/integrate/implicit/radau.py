@@ -159,7 +159,7 @@ def _dense_radau_attempt(system: CableSystem, t: float, y: np.ndarray, h: float,
 
 def _joint_increment_size(model, q: np.ndarray, v: np.ndarray, dq: np.ndarray, dv: np.ndarray,
                           scale: float, scv: np.ndarray) -> float:
-    """The compiled ``radau_step._add_increment``'s size of the stage increments ``dq, dv``
+    """The compiled ``radau_step._add_increments``'s size of the stage increments ``dq, dv``
     (3, n+1), from the joints' positions and velocities linearised at (q, v): the largest
     change of a joint-position component over ``scale`` [m] and of a joint-velocity component
     over ``scv`` (``scale`` plus ``tol`` times the joint's largest velocity component, per

@@ -24,7 +24,7 @@ the constraint, where the forward dynamics pull back at rates ``2 alpha``, ``bet
 W-methods' operator leaves out.
 
 Newton's increments are measured where the step's accuracy is judged, at the joints
-(:func:`_add_increment`): the largest joint-position change over ``tol L`` (L the line's
+(:func:`_add_increments`): the largest joint-position change over ``tol L`` (L the line's
 length) and joint-velocity change over ``tol (L / 1 s + |v_j|)``, per stage. The iteration
 stops when that times ``theta / (1 - theta)`` (its contraction rate, of the previous step in
 the first iteration) is at most 1, and fails when the increments stop
@@ -108,12 +108,32 @@ def radau_workspace(n: int) -> tuple:
 
 
 @nb.njit(cache=True, inline="always")
-def _transformed_rhs(ti: np.ndarray, hg: complex, F: np.ndarray, Z: np.ndarray, j: int) -> complex:
-    """Entry j of one transformed system's right-hand side ``hg (V^-1 F)_k - (V^-1 Z)_k`` (``ti``:
-    row k of ``V^-1``; real or complex)."""
-    g = ti[0] * F[0, j] + ti[1] * F[1, j] + ti[2] * F[2, j]
-    w = ti[0] * Z[0, j] + ti[1] * Z[1, j] + ti[2] * Z[2, j]
-    return hg * g - w
+def _transformed_rhs(ti1: np.ndarray, ti2: np.ndarray, hg1: float, hg2: complex, Fq: np.ndarray,
+                     Fv: np.ndarray, Zq: np.ndarray, Zv: np.ndarray, rq: np.ndarray,
+                     rv: np.ndarray, crq: np.ndarray, crv: np.ndarray) -> None:
+    """The real and the complex transformed systems' right-hand sides ``hg_k (V^-1 F)_k -
+    (V^-1 Z)_k`` (``ti1``, ``ti2``: rows 1 and 2 of ``V^-1``, real and complex) into ``rq, rv``
+    and ``crq, crv``, in one pass as ``(hg_k t_k) . F - t_k . Z`` (equal to round-off): the
+    complex rows' products with the real F and Z in real arithmetic, two products per entry
+    (a complex row times a real entry promoted to complex costs four)."""
+    a0, a1, a2 = hg1 * ti1[0], hg1 * ti1[1], hg1 * ti1[2]
+    t0, t1, t2 = ti1[0], ti1[1], ti1[2]
+    c0, c1, c2 = hg2 * ti2[0], hg2 * ti2[1], hg2 * ti2[2]
+    cr0, cr1, cr2 = c0.real, c1.real, c2.real
+    ci0, ci1, ci2 = c0.imag, c1.imag, c2.imag
+    tr0, tr1, tr2 = ti2[0].real, ti2[1].real, ti2[2].real
+    tm0, tm1, tm2 = ti2[0].imag, ti2[1].imag, ti2[2].imag
+    for j in range(rq.shape[0]):
+        f0, f1, f2 = Fq[0, j], Fq[1, j], Fq[2, j]
+        z0, z1, z2 = Zq[0, j], Zq[1, j], Zq[2, j]
+        g0, g1, g2 = Fv[0, j], Fv[1, j], Fv[2, j]
+        w0, w1, w2 = Zv[0, j], Zv[1, j], Zv[2, j]
+        rq[j] = (a0 * f0 + a1 * f1 + a2 * f2) - (t0 * z0 + t1 * z1 + t2 * z2)
+        rv[j] = (a0 * g0 + a1 * g1 + a2 * g2) - (t0 * w0 + t1 * w1 + t2 * w2)
+        crq[j] = complex((cr0 * f0 + cr1 * f1 + cr2 * f2) - (tr0 * z0 + tr1 * z1 + tr2 * z2),
+                         (ci0 * f0 + ci1 * f1 + ci2 * f2) - (tm0 * z0 + tm1 * z1 + tm2 * z2))
+        crv[j] = complex((cr0 * g0 + cr1 * g1 + cr2 * g2) - (tr0 * w0 + tr1 * w1 + tr2 * w2),
+                         (ci0 * g0 + ci1 * g1 + ci2 * g2) - (tm0 * w0 + tm1 * w1 + tm2 * w2))
 
 
 @nb.njit(cache=True, inline="always")
@@ -161,37 +181,72 @@ def _joint_map(l: np.ndarray, v: np.ndarray, cth: np.ndarray, sth: np.ndarray, t
 
 
 @nb.njit(cache=True, inline="always")
-def _add_increment(zq: np.ndarray, zv: np.ndarray, a: float, b: complex, rq: np.ndarray,
-                   rv: np.ndarray, crq: np.ndarray, crv: np.ndarray, jm: np.ndarray,
-                   inv_pos: float) -> float:
-    """Add one stage's Newton increment ``a dW_1 + Re(b dW_2)`` (``dW_1 = (rq, rv)``, ``dW_2 =
-    (crq, crv)``) to its increments ``zq, zv`` and return its size at the joints (``jm``,
-    ``inv_pos``: :func:`_joint_map`): the largest joint-position component of the change times
-    ``inv_pos`` and joint-velocity component times ``jm[4, j]``, the joints' changes summed
-    along the line as the error norm sums an error
+def _joint_change(dq: float, dv: float, lc: float, ls: float, lcw: float, lsw: float, px: float,
+                  pz: float, vx: float, vz: float) -> tuple[float, float, float, float]:
+    """The running sums of one stage's joint changes (position x, z; velocity x, z) past a link
+    whose angle and angular velocity change by ``dq``, ``dv`` (``lc, ls, lcw, lsw``: its column
+    of :func:`_joint_map`)."""
+    return (px + lc * dq, pz + ls * dq, vx + (lc * dv - lsw * dq), vz + (ls * dv + lcw * dq))
+
+
+@nb.njit(cache=True, inline="always")
+def _add_increments(Zq: np.ndarray, Zv: np.ndarray, v1: np.ndarray, v2: np.ndarray,
+                    rq: np.ndarray, rv: np.ndarray, crq: np.ndarray, crv: np.ndarray,
+                    jm: np.ndarray, inv_pos: float) -> float:
+    """Add the Newton increments ``Z_i += v1_i dW_1 + 2 Re(v2_i dW_2)`` of the three stages
+    (``dW_1 = (rq, rv)``, ``dW_2 = (crq, crv)``) and return their largest size at the joints
+    (``jm``, ``inv_pos``: :func:`_joint_map`): the largest joint-position component of a stage's
+    change times ``inv_pos`` and joint-velocity component times ``jm[4, j]``, the joints' changes
+    summed along the line as the error norm sums an error
     (:func:`cable_sim.integrate.step_control.err_norm_ws`). A change of one link's angle moves
     the joints by its length times the change, so on a finely divided line a local correction
-    (a kink running down the line) counts for what it moves, not as a whole radian."""
-    dz0 = a * rq[0] + (b * crq[0]).real
-    dvz0 = a * rv[0] + (b * crv[0]).real
-    zq[0] += dz0
-    zv[0] += dvz0
-    big = max(abs(dz0) * inv_pos, abs(dvz0) * jm[4, 0])
-    dpx = 0.0
-    dpz = dz0
-    dvx = 0.0
-    dvz = dvz0
-    for j in range(1, zq.shape[0]):
-        dq = a * rq[j] + (b * crq[j]).real
-        dv = a * rv[j] + (b * crv[j]).real
-        zq[j] += dq
-        zv[j] += dv
+    (a kink running down the line) counts for what it moves, not as a whole radian.
+
+    The three stages in one pass: their running sums are independent chains side by side."""
+    a0, a1, a2 = v1[0], v1[1], v1[2]
+    br0, br1, br2 = 2.0 * v2[0].real, 2.0 * v2[1].real, 2.0 * v2[2].real
+    bi0, bi1, bi2 = 2.0 * v2[0].imag, 2.0 * v2[1].imag, 2.0 * v2[2].imag
+    # the platform (j = 0): its heave moves every joint alike
+    q, v = rq[0], rv[0]
+    cqr, cqi, cvr, cvi = crq[0].real, crq[0].imag, crv[0].real, crv[0].imag
+    pz0 = a0 * q + (br0 * cqr - bi0 * cqi)
+    pz1 = a1 * q + (br1 * cqr - bi1 * cqi)
+    pz2 = a2 * q + (br2 * cqr - bi2 * cqi)
+    vz0 = a0 * v + (br0 * cvr - bi0 * cvi)
+    vz1 = a1 * v + (br1 * cvr - bi1 * cvi)
+    vz2 = a2 * v + (br2 * cvr - bi2 * cvi)
+    Zq[0, 0] += pz0
+    Zq[1, 0] += pz1
+    Zq[2, 0] += pz2
+    Zv[0, 0] += vz0
+    Zv[1, 0] += vz1
+    Zv[2, 0] += vz2
+    px0 = px1 = px2 = vx0 = vx1 = vx2 = 0.0
+    big = max(max(abs(pz0), abs(pz1), abs(pz2)) * inv_pos,
+              max(abs(vz0), abs(vz1), abs(vz2)) * jm[4, 0])
+    for j in range(1, Zq.shape[1]):
         k = j - 1
-        dpx += jm[0, k] * dq
-        dpz += jm[1, k] * dq
-        dvx += jm[0, k] * dv - jm[3, k] * dq
-        dvz += jm[1, k] * dv + jm[2, k] * dq
-        big = max(big, max(abs(dpx), abs(dpz)) * inv_pos, max(abs(dvx), abs(dvz)) * jm[4, j])
+        lc, ls, lcw, lsw = jm[0, k], jm[1, k], jm[2, k], jm[3, k]
+        q, v = rq[j], rv[j]
+        cqr, cqi, cvr, cvi = crq[j].real, crq[j].imag, crv[j].real, crv[j].imag
+        dq = a0 * q + (br0 * cqr - bi0 * cqi)
+        dv = a0 * v + (br0 * cvr - bi0 * cvi)
+        Zq[0, j] += dq
+        Zv[0, j] += dv
+        px0, pz0, vx0, vz0 = _joint_change(dq, dv, lc, ls, lcw, lsw, px0, pz0, vx0, vz0)
+        dq = a1 * q + (br1 * cqr - bi1 * cqi)
+        dv = a1 * v + (br1 * cvr - bi1 * cvi)
+        Zq[1, j] += dq
+        Zv[1, j] += dv
+        px1, pz1, vx1, vz1 = _joint_change(dq, dv, lc, ls, lcw, lsw, px1, pz1, vx1, vz1)
+        dq = a2 * q + (br2 * cqr - bi2 * cqi)
+        dv = a2 * v + (br2 * cvr - bi2 * cvi)
+        Zq[2, j] += dq
+        Zv[2, j] += dv
+        px2, pz2, vx2, vz2 = _joint_change(dq, dv, lc, ls, lcw, lsw, px2, pz2, vx2, vz2)
+        pos = max(max(abs(px0), abs(pz0)), max(abs(px1), abs(pz1)), max(abs(px2), abs(pz2)))
+        vel = max(max(abs(vx0), abs(vz0)), max(abs(vx1), abs(vz1)), max(abs(vx2), abs(vz2)))
+        big = max(big, pos * inv_pos, vel * jm[4, j])
     return big
 
 
@@ -271,18 +326,11 @@ def _radau_step(arr: np.ndarray, par: np.ndarray, geometric: bool, predict: bool
                 Fq[i, j] = rv[j]
                 Fv[i, j] = acc[j]
         # the real and the complex transformed systems' right-hand sides hg G - W
-        for j in range(n1):
-            rq[j] = _transformed_rhs(ti1, hg1, Fq, Zq, j)
-            rv[j] = _transformed_rhs(ti1, hg1, Fv, Zv, j)
-            crq[j] = _transformed_rhs(ti2, hg2, Fq, Zq, j)
-            crv[j] = _transformed_rhs(ti2, hg2, Fv, Zv, j)
+        _transformed_rhs(ti1, ti2, hg1, hg2, Fq, Fv, Zq, Zv, rq, rv, crq, crv)
         _solve_shifted(arr, par, hg1, W, W, S, X, rq, rv, rk, rhs, x)
         _solve_shifted(arr, par, hg2, W, Wc, Sc, Xc, crq, crv, crk, crhs, cx)
         # Z += V dW: v1 dW1 + 2 Re(v2 dW2), and the increment's scaled size at the joints
-        big = 0.0
-        for i in range(3):
-            big = max(big, _add_increment(Zq[i], Zv[i], v1[i], 2.0 * v2[i], rq, rv, crq, crv, jm,
-                                          inv_pos))
+        big = _add_increments(Zq, Zv, v1, v2, rq, rv, crq, crv, jm, inv_pos)
         verdict, eta = newton_verdict(it, big, prev, eta, maxit)
         if verdict == NEWTON_CONVERGED:
             newton[0] = eta
