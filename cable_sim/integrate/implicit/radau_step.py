@@ -255,7 +255,7 @@ def _radau_step(arr: np.ndarray, par: np.ndarray, geometric: bool, predict: bool
                 us: np.ndarray, es: np.ndarray, y: np.ndarray, yn: np.ndarray, ws: tuple,
                 lam1: float, lam2: complex, ti1: np.ndarray, ti2: np.ndarray, v1: np.ndarray,
                 v2: np.ndarray, offsets: np.ndarray, tol: float, maxit: int, info: np.ndarray,
-                ratio: float, newton: np.ndarray) -> int:
+                ratio: float, newton: np.ndarray, slope_ready: bool = False) -> int:
     """One Radau IIA step of h from y into ``yn`` (``2(n+1)``); ``us[0], es[0]``: the inputs at
     the step's start, ``us[1 + i], es[1 + i]`` at stage i. ``lam1, lam2``: the real and one
     complex eigenvalue of ``A^-1``; ``ti1, ti2``: the matching rows of ``V^-1``; ``v1, v2``:
@@ -264,9 +264,14 @@ def _radau_step(arr: np.ndarray, par: np.ndarray, geometric: bool, predict: bool
     ``ratio`` times as long; the initial guess extrapolates its collocation polynomial
     (Hairer & Wanner IV.8). Otherwise (0) the guess is the explicit Euler increments.
     ``newton[0]``: the contraction estimate ``eta`` of the last converged iteration (updated;
-    :func:`newton_verdict`). On return the factorisations, the stage increments and (row 9 of
-    the real rows) the accelerations at y stay in ``ws`` for the error estimate of
-    :mod:`cable_sim.integrate.implicit.radau_adaptive`. Returns ``_STEP_OK``,
+    :func:`newton_verdict`). ``slope_ready``: y is the end of the previous step, converged
+    in ``ws``, and the links' cos/sin at y are in the forward dynamics' workspace; its last
+    stage's slope (at y to within the Newton tolerance) then stands in for the accelerations
+    at y, which only the iteration matrix, the drag's predicted velocity and the first guess
+    use (one force evaluation fewer per step). On return the factorisations, the stage
+    increments and (row 9 of the real rows) the accelerations at y stay in ``ws`` for the
+    error estimate of :mod:`cable_sim.integrate.implicit.radau_adaptive` (which evaluates them
+    afresh). Returns ``_STEP_OK``,
     ``_STEP_NO_CONVERGENCE`` or ``_STEP_SINGULAR``; ``info[0]`` counts the force evaluations,
     ``info[3]`` the Newton iterations (``info`` as in :func:`_radau_fixed_run`)."""
     n1 = y.shape[0] // 2
@@ -283,9 +288,13 @@ def _radau_step(arr: np.ndarray, par: np.ndarray, geometric: bool, predict: bool
     lam = wk[8, :2]
     q = y[:n1]
     v = y[n1:]
-    if not fd_packed_ws(arr, par, us[0], es[0], q, v, acc, lam, fw):
-        return _STEP_SINGULAR
-    info[0] += 1
+    if slope_ready:
+        for j in range(n1):
+            acc[j] = Fv[2, j]
+    else:
+        if not fd_packed_ws(arr, par, us[0], es[0], q, v, acc, lam, fw):
+            return _STEP_SINGULAR
+        info[0] += 1
     acc0 = wk[9]  # kept for the error estimate (radau_adaptive)
     for j in range(n1):
         vp[j] = v[j] + h * acc[j] if predict else v[j]
@@ -315,16 +324,14 @@ def _radau_step(arr: np.ndarray, par: np.ndarray, geometric: bool, predict: bool
     eta = max(newton[0], 1e-16) ** 0.8
     for it in range(maxit):
         info[3] += 1
-        for i in range(3):
+        for i in range(3):  # the stage slopes: (v + Zv_i, the accelerations there)
+            fq = Fq[i]
             for j in range(n1):
                 yq[j] = q[j] + Zq[i, j]
-                rv[j] = v[j] + Zv[i, j]
-            if not fd_packed_ws(arr, par, us[1 + i], es[1 + i], yq, rv, acc, lam, fw):
+                fq[j] = v[j] + Zv[i, j]
+            if not fd_packed_ws(arr, par, us[1 + i], es[1 + i], yq, fq, Fv[i], lam, fw):
                 return _STEP_NO_CONVERGENCE  # a stage state the dynamics cannot take: not a fix
             info[0] += 1
-            for j in range(n1):
-                Fq[i, j] = rv[j]
-                Fv[i, j] = acc[j]
         # the real and the complex transformed systems' right-hand sides hg G - W
         _transformed_rhs(ti1, ti2, hg1, hg2, Fq, Fv, Zq, Zv, rq, rv, crq, crv)
         _solve_shifted(arr, par, hg1, W, W, S, X, rq, rv, rk, rhs, x)
@@ -422,8 +429,12 @@ def _radau_fixed_run(arr: np.ndarray, par: np.ndarray, geometric: bool, predict:
                     us[i] = _cubic_input(s, offsets, u[k])
                     es[i] = _cubic_input(s, offsets, eta[k])
             ratio = hprev / hs if hprev > 0.0 else 0.0
+            # after an accepted (sub)step its last stage's slope serves as the one at ys
+            # (the check below leaves the links' cos/sin at ys in the workspace, and so does
+            # the last stage's force evaluation between substeps, to the Newton tolerance)
             res = _radau_step(arr, par, geometric, predict, hs, us, es, ys, yn, ws, lam1, lam2,
-                              ti1, ti2, v1, v2, offsets, tol, maxit, info, ratio, newton)
+                              ti1, ti2, v1, v2, offsets, tol, maxit, info, ratio, newton,
+                              hprev > 0.0)
             if res == _STEP_SINGULAR:
                 return STATUS_SINGULAR
             if res == _STEP_OK:
