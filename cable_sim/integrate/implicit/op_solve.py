@@ -44,6 +44,15 @@ from cable_sim.integrate.implicit.op_layout import (
 
 
 @nb.njit(cache=True, inline="always")
+def _factor_rows(W: np.ndarray) -> tuple:
+    """The rows of the solve's per-link factors (:func:`~.op_factor._solve_factors`): ``g_x,
+    g_z, k, k l t_x, k l t_z`` and the affine map's entries ``1 - g_x l t_x, g_x l t_z,
+    g_z l t_x, 1 - g_z l t_z`` (views)."""
+    return (W[_W_GX], W[_W_GZ], W[_W_K], W[_W_KX], W[_W_KZ], W[_W_AXX], W[_W_AXZ], W[_W_AZX],
+            W[_W_AZZ])
+
+
+@nb.njit(cache=True, inline="always")
 def _solve_inward(l: np.ndarray, G: np.ndarray, W: np.ndarray, rhs: np.ndarray,
                   rr: np.ndarray) -> float:
     """:func:`_op_rhs_inward` of a generalised force (``-b_i`` into ``rr``; returns the
@@ -56,15 +65,7 @@ def _solve_inward(l: np.ndarray, G: np.ndarray, W: np.ndarray, rhs: np.ndarray,
     ``G``: the real geometry rows (``G is W`` for a real ``hg``)."""
     cth = G[_W_COS]
     sth = G[_W_SIN]
-    gxa = W[_W_GX]
-    gza = W[_W_GZ]
-    ka = W[_W_K]
-    kxa = W[_W_KX]
-    kza = W[_W_KZ]
-    axx = W[_W_AXX]
-    axz = W[_W_AXZ]
-    azx = W[_W_AZX]
-    azz = W[_W_AZZ]
+    gxa, gza, ka, kxa, kza, axx, axz, azx, azz = _factor_rows(W)
     bn = 0.0
     bx = 0.0
     bz = 0.0
@@ -94,15 +95,7 @@ def _solve_outward(l: np.ndarray, G: np.ndarray, W: np.ndarray, rr: np.ndarray, 
     cth = G[_W_COS]
     sth = G[_W_SIN]
     idd = W[_W_D]
-    gxa = W[_W_GX]
-    gza = W[_W_GZ]
-    ka = W[_W_K]
-    kxa = W[_W_KX]
-    kza = W[_W_KZ]
-    axx = W[_W_AXX]
-    axz = W[_W_AXZ]
-    azx = W[_W_AZX]
-    azz = W[_W_AZZ]
+    gxa, gza, ka, kxa, kza, axx, axz, azx, azz = _factor_rows(W)
     x[0] = zdd
     ap = 0.0
     apx = 0.0
