@@ -178,8 +178,10 @@ def seabed_outputs(model: CableModel, q: np.ndarray, qd: np.ndarray | None = Non
     # fraction of each link below the bed and where (from its upper joint) that part starts
     frac_in = np.where(da > 0.0, np.where(db > 0.0, 1.0, cross), np.where(db > 0.0, 1.0 - cross, 0.0))
     start = np.where((da <= 0.0) & (db > 0.0), cross, 0.0)
-    laid = float(np.dot(frac_in, l))
-    i = int(np.argmax(inside))  # the first link (from the fairlead) below the bed
+    # a sum and nonzero, not np.dot / np.argmax: those release the GIL at every call (BLAS,
+    # argmax), which costs a recording node's simulation thread a thread hand-over each time
+    laid = float((frac_in * l).sum())
+    i = int(inside.nonzero()[0][0])  # the first link (from the fairlead) below the bed
     frac = float(start[i])
     s_td = float(l[:i].sum()) + frac * l[i]
     x_td = p[i, 0] + frac * (p[i + 1, 0] - p[i, 0])

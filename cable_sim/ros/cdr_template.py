@@ -87,7 +87,7 @@ class TemplateEncoder:
                  stamp: int | None = None, stamps: int = 1) -> None:
         data = serialize(prototype)
         self.nbytes = len(data)
-        self._template = np.frombuffer(data, dtype=np.uint8).copy()
+        self._template = bytes(data)
         self._slots: dict[str, tuple[list[int], np.dtype, tuple[int, ...]]] = {}
         for name, (values, count) in fields.items():
             dt = np.dtype(_LE[np.asarray(values).dtype])
@@ -102,9 +102,12 @@ class TemplateEncoder:
 
         Every field given at construction must be given, with the sentinel's shape.
         """
-        out = self._template.copy()
+        # bytes and bytearray, not numpy uint8 arrays: numpy copies of more than a few hundred
+        # elements release the GIL, and each release wakes a thread waiting for it (the
+        # recorder's writer) or hands it over, at a cost to this thread (README: recording)
+        out = bytearray(self._template)
         if self._stamp_at:
-            sb = np.frombuffer(stamp_bytes(0 if stamp_ns is None else stamp_ns), dtype=np.uint8)
+            sb = stamp_bytes(0 if stamp_ns is None else stamp_ns)
             for at in self._stamp_at:
                 out[at:at + 8] = sb
         if values.keys() != self._slots.keys():
@@ -114,10 +117,10 @@ class TemplateEncoder:
             v = np.asarray(values[name], dtype=dt)
             if v.shape != shape:
                 raise ValueError(f"field {name!r} has shape {v.shape}; the layout has {shape}")
-            raw = np.ascontiguousarray(v).view(np.uint8).ravel()
+            raw = v.tobytes()
             for at in offsets:
-                out[at:at + raw.size] = raw
-        return out.tobytes()
+                out[at:at + len(raw)] = raw
+        return bytes(out)
 
 
 def _find(data: bytes, pattern: bytes, count: int, name: str) -> list[int]:

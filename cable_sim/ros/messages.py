@@ -140,8 +140,8 @@ def marker_values(out: Any, model: Any, seabed: np.ndarray | None = None) -> dic
     ten = np.abs(out.axial_tension)
     tmax = float(ten.max()) if len(ten) and ten.max() > 0 else 1.0
     tn = np.concatenate([ten[:1], ten]) / tmax
-    pts = np.zeros((len(p), 3))
-    pts[:, 0], pts[:, 2] = p[:, 0], p[:, 1]
+    pts = np.empty((len(p), 3))
+    pts[:, 0], pts[:, 1], pts[:, 2] = p[:, 0], 0.0, p[:, 1]
     cols = np.empty((len(p), 4), dtype=np.float32)
     cols[:, 0], cols[:, 1], cols[:, 2], cols[:, 3] = tn, 0.2, 1.0 - tn, 1.0
     x0, x1 = float(min(p[:, 0].min(), 0.0)) - 20.0, float(p[:, 0].max()) + 20.0

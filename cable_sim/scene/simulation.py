@@ -16,6 +16,7 @@ the compiled steppers evaluate them without calling back into Python.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -300,10 +301,12 @@ class Simulation:
                 and (lam is None or np.all(np.isfinite(lam)))):
             raise IntegrationError(self.t, "numerical instability: non-finite accelerations or "
                                    "joint forces from a finite state")
-        drift = float(np.linalg.norm(pos[-1] - m.anchor)) if m.constrained else 0.0
+        # math.hypot, not np.linalg.norm: a BLAS dot releases the GIL, and each release hands it
+        # to a waiting thread (the recorder's writer) or wakes it for nothing (see README, recording)
+        drift = math.hypot(*(pos[-1] - m.anchor)) if m.constrained else 0.0
         slack = float("nan")
         if m.end != 0:
-            slack = 1.0 - float(np.linalg.norm(pos[0] - m.anchor)) / float(m.length.sum())
+            slack = 1.0 - math.hypot(*(pos[0] - m.anchor)) / float(m.length.sum())
         return Outputs(
             t=self.t, q=q.copy(), qd=qd.copy(), qdd=qdd, joint_positions=pos, joint_forces=F,
             axial_tension=dynamics.axial_tension(m, q, F), fairlead_force=F[0].copy(),
