@@ -224,6 +224,42 @@ def fd_trig(ws: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
     return ws[_F_COS, :n], ws[_F_SIN, :n]
 
 
+@nb.njit(cache=True, inline="always")
+def applied_generalised_forces(arr: np.ndarray, par: np.ndarray, q: np.ndarray, qd: np.ndarray,
+                               ws: np.ndarray, trig_ready: bool) -> None:
+    """The first steps of :func:`fd_packed_ws` into its workspace ``ws``: the links' cos/sin
+    (unless ``trig_ready``), the joint torques, and each link's centre force and couple
+    (weight - buoyancy, drag, seabed contact)."""
+    n = arr.shape[1]
+    l, mw, jk, jc, gl2, cn, ct = arr[0], arr[2], arr[3], arr[4], arr[5], arr[6], arr[7]
+    kb, cb, mua, mut = arr[8], arr[9], arr[10], arr[11]
+    current, drag, g, seabed, zb, vc = par[0], int(par[1]), par[9], par[17] != 0.0, par[18], par[19]
+    cth = ws[_F_COS, :n]
+    sth = ws[_F_SIN, :n]
+    if not trig_ready:
+        link_trig(q, cth, sth)
+    joint_torques(jk, jc, q, qd, ws[_F_TAU, :n + 1])
+    fgx = ws[_F_FGX, :n]
+    fgz = ws[_F_FGZ, :n]
+    cpl = ws[_F_CPL, :n]
+    applied_link_forces(l, mw, gl2, cn, ct, current, drag, g, qd, cth, sth, fgx, fgz, cpl,
+                        ws[_F_PVX, :n], ws[_F_PVZ, :n])
+    if seabed:
+        F = ws[_F_BED:_F_BED + 2].reshape(-1)[:2 * n].reshape((n, 2))
+        S = ws[_F_BED + 2:_F_BED + 4].reshape(-1)[:2 * n].reshape((n, 2))
+        add_seabed_loads(l, zb, kb, cb, mua, mut, vc, q, qd, cth, sth, fgx, fgz, cpl, F, S)
+
+
+@nb.njit(cache=True, inline="always")
+def platform_force(par: np.ndarray, u: float, eta: float, q: np.ndarray, qd: np.ndarray) -> float:
+    """The generalised force on the platform's heave besides the line: the input heave force
+    ``u``, the heave spring and damper, and the wave elevation ``eta`` through the spring."""
+    q0 = u - par[5] * q[0] - par[6] * qd[0]
+    if par[8] != 0.0:
+        q0 += par[5] * eta
+    return q0
+
+
 @nb.njit(cache=True, error_model="numpy", fastmath={"contract"})
 def fd_packed_ws(arr: np.ndarray, par: np.ndarray, u: float, eta: float, q: np.ndarray,
                  qd: np.ndarray, qdd: np.ndarray, lam: np.ndarray, ws: np.ndarray,
@@ -249,27 +285,18 @@ def fd_packed_ws(arr: np.ndarray, par: np.ndarray, u: float, eta: float, q: np.n
     NaN/Inf, which the blow-up detection relies on).
     """
     n = arr.shape[1]
-    l, mw, jk, jc, gl2, cn, ct = arr[0], arr[2], arr[3], arr[4], arr[5], arr[6], arr[7]
-    kb, cb, mua, mut, me = arr[8], arr[9], arr[10], arr[11], arr[13]
-    current, drag, mc, mcw, mp = par[0], int(par[1]), par[2], par[3], par[4]
-    hk, hc, locked, wave, g = par[5], par[6], par[7] != 0.0, par[8] != 0.0, par[9]
+    l, me = arr[0], arr[13]
+    mc, mcw, mp = par[2], par[3], par[4]
+    locked, g = par[7] != 0.0, par[9]
     constrained, ax, az, balpha, bbeta = par[10] != 0.0, par[11], par[12], par[13], par[14]
-    seabed, zb, vc, heavy = par[17] != 0.0, par[18], par[19], par[20] != 0.0
+    heavy = par[20] != 0.0
+    applied_generalised_forces(arr, par, q, qd, ws, trig_ready)
     cth = ws[_F_COS, :n]
     sth = ws[_F_SIN, :n]
-    if not trig_ready:
-        link_trig(q, cth, sth)
     tau = ws[_F_TAU, :n + 1]
-    joint_torques(jk, jc, q, qd, tau)
     fgx = ws[_F_FGX, :n]
     fgz = ws[_F_FGZ, :n]
     cpl = ws[_F_CPL, :n]
-    applied_link_forces(l, mw, gl2, cn, ct, current, drag, g, qd, cth, sth, fgx, fgz, cpl,
-                        ws[_F_PVX, :n], ws[_F_PVZ, :n])
-    if seabed:
-        F = ws[_F_BED:_F_BED + 2].reshape(-1)[:2 * n].reshape((n, 2))
-        S = ws[_F_BED + 2:_F_BED + 4].reshape(-1)[:2 * n].reshape((n, 2))
-        add_seabed_loads(l, zb, kb, cb, mua, mut, vc, q, qd, cth, sth, fgx, fgz, cpl, F, S)
     nrhs = 3 if (constrained or heavy) else 1
     dd = ws[_F_DD, :n]
     hx = ws[_F_HX, :n]
@@ -282,9 +309,7 @@ def fd_packed_ws(arr: np.ndarray, par: np.ndarray, u: float, eta: float, q: np.n
     bz[0] = mcw * g
     sw = ws[_F_SW:_F_SW + SW_ROWS]
     mk = arr[ARR_MK:ARR_MK + MK_ROWS]
-    q0 = u - hk * q[0] - hc * qd[0]
-    if wave:
-        q0 += hk * eta
+    q0 = platform_force(par, u, eta, q, qd)
     lam[0] = 0.0
     lam[1] = 0.0
     if nrhs == 1:

@@ -62,6 +62,64 @@ def articulated_parts(
     return 1.0 / xp, (x + m4) * m3, -y * m6, -(y * y), me + z
 
 
+@nb.njit(cache=True, inline="always")
+def child_inertia(
+    last: bool, mload: float, m3: float, ixp: float, kp: float, kr: float, ku: float, cu: float,
+    cc: float, ss: float, cs: float,
+) -> tuple[float, float, float, float]:
+    """The child's articulated inertia in a link's frame, ``(x, y, z) = (t.A.t, t.A.e, e.A.e)``,
+    and ``xp = x + mn/3`` (``m3``): the load's isotropic ``mload I`` below the last link
+    (``last``), else the child's parts ``(ixp, kp, kr, ku, cu)`` (:func:`articulated_parts`)
+    turned by the relative angle (``cc, ss, cs``: its cos^2, sin^2, cos sin), each part turned
+    while the child's ``1/xp`` is being formed."""
+    if last:
+        return mload, 0.0, mload, mload + m3
+    tcs = 2.0 * cs
+    kx = kp * cc + (kr * tcs + ku * ss)
+    ky = (ku - kp) * cs + kr * (cc - ss)
+    kz = kp * ss - kr * tcs + ku * cc
+    cx = cu * ss
+    return ixp * kx + cx, ixp * ky + cu * cs, ixp * kz + cu * cc, ixp * kx + (cx + m3)
+
+
+@nb.njit(cache=True, inline="always")
+def link_coupling(x: float, y: float, hm: float, lc: float, ls: float) -> tuple[float, float]:
+    """``h = l A t + (mn l/2) t`` (world x, z) with ``A t = x t + y e`` (``hm`` = mn/2,
+    ``lc, ls`` = l t)."""
+    xh = x + hm
+    return lc * xh + ls * y, ls * xh - lc * y
+
+
+@nb.njit(cache=True, inline="always")
+def bias_step(
+    sc: np.ndarray, i: int, y: float, z: float, lc: float, ls: float, h_x: float, h_z: float,
+    inv_d: float, b0x: float, b0z: float,
+) -> tuple[float, float, float, float]:
+    """One link of the applied-force right-hand side: ``R = applied couple + l^2 w^2 t.A.e -
+    l t.b`` and ``b += G - w^2 l (me/2 e + A e) + h R/D`` from the factors of
+    :func:`sweep_prep` in ``sc``; stores R/D in ``sc`` and returns ``(R, R/D, b_x, b_z)``."""
+    r0 = (sc[_S_RA, i] + sc[_S_L2W2, i] * y) - (lc * b0x + ls * b0z)
+    rd = r0 * inv_d
+    sc[_S_RD, i] = rd
+    wlc = sc[_S_WLC, i]
+    wls = sc[_S_WLS, i]
+    b0x = ((b0x + sc[_S_FX0, i]) - (wlc * y + wls * z)) + h_x * rd
+    b0z = ((b0z + sc[_S_FZ0, i]) - (wls * y - wlc * z)) + h_z * rd
+    return r0, rd, b0x, b0z
+
+
+@nb.njit(cache=True, inline="always")
+def flush_cross(i: int, ixp: float, kp: float, kr: float, ku: float, cu: float) -> float:
+    """The cross term ``kr`` of a link's articulated parts, or 0 where it has decayed below
+    TINY of the inertia: along a straight stretch (relative angle 0) it decays geometrically
+    (factor < 1/2 per link) and is flushed long before it turns subnormal (~100x slower
+    arithmetic), far below round-off; tested every 16th link only (a test per link costs ~10 %
+    of the sweep)."""
+    if i & 15 == 0 and abs(kr * ixp) < TINY * (abs(kp * ixp) + abs(cu + ku * ixp)):
+        return 0.0
+    return kr
+
+
 # ---- inward sweep (tip to platform) ------------------------------------------------------------
 
 
@@ -207,13 +265,6 @@ def inward_sweep_ws(
     lss = sc[_S_LS]
     gxs = sc[_S_GX]
     gzs = sc[_S_GZ]
-    rds = sc[_S_RD]
-    ras = sc[_S_RA]
-    l2w2 = sc[_S_L2W2]
-    fx0 = sc[_S_FX0]
-    fz0 = sc[_S_FZ0]
-    wlcs = sc[_S_WLC]
-    wlss = sc[_S_WLS]
     ixp = 0.0
     kp = 0.0
     kr = 0.0
@@ -231,33 +282,13 @@ def inward_sweep_ws(
     e0 = 0.0
     e1 = 0.0
     for i in range(n - 1, -1, -1):
-        if i == n - 1:
-            # the load's A = mload I is isotropic (any frame)
-            x, y, z = mload, 0.0, mload
-            xp = x + m3[i]
-        else:
-            # the child's A in this link's frame (:func:`to_parent_frame`), each part turned
-            # while 1/xp of the child is being formed
-            cc = rc[i]
-            ss = rs[i]
-            cs = rcs[i]
-            tcs = 2.0 * cs
-            kx = kp * cc + (kr * tcs + ku * ss)
-            ky = (ku - kp) * cs + kr * (cc - ss)
-            kz = kp * ss - kr * tcs + ku * cc
-            cx = cu * ss
-            x = ixp * kx + cx
-            y = ixp * ky + cu * cs
-            z = ixp * kz + cu * cc
-            xp = ixp * kx + (cx + m3[i])
+        x, y, z, xp = child_inertia(i == n - 1, mload, m3[i], ixp, kp, kr, ku, cu, rc[i], rs[i],
+                                    rcs[i])
         ixp = 1.0 / xp
         inv_d = ixp * il2[i]  # 1/D = 1/(l^2 xp)
         lc = lcs[i]
         ls = lss[i]
-        # h = l A t + (mn l/2) t with A t = x t + y e
-        xh = x + hm[i]
-        h_x = lc * xh + ls * y
-        h_z = ls * xh - lc * y
+        h_x, h_z = link_coupling(x, y, hm[i], lc, ls)
         if full:
             idd[i] = inv_d
             hx[i] = h_x
@@ -265,20 +296,13 @@ def inward_sweep_ws(
         gxs[i] = h_x * inv_d
         gzs[i] = h_z * inv_d
         if bias:
-            # R = applied couple + l^2 w^2 t.A.e - l t.b;  b += G - w^2 l (me/2 e + A e) + h R/D
-            r0 = (ras[i] + l2w2[i] * y) - (lc * b0x + ls * b0z)
-            rd = r0 * inv_d
+            r0, rd, b0x, b0z = bias_step(sc, i, y, z, lc, ls, h_x, h_z, inv_d, b0x, b0z)
             if full:
                 rr[0, i] = r0
-            rds[i] = rd
-            wlc = wlcs[i]
-            wls = wlss[i]
-            b0x = ((b0x + fx0[i]) - (wlc * y + wls * z)) + h_x * rd
-            b0z = ((b0z + fz0[i]) - (wls * y - wlc * z)) + h_z * rd
             if endm is not None:
                 # end-correction sums (see the docstring), with the end forces below this link
-                vx = lc * rd - wls
-                vz = ls * rd + wlc
+                vx = lc * rd - sc[_S_WLS, i]
+                vz = ls * rd + sc[_S_WLC, i]
                 e0 -= b1x * vx + b1z * vz
                 e1 -= b2x * vx + b2z * vz
         if nrhs > 1:
@@ -290,12 +314,7 @@ def inward_sweep_ws(
                     rr[k, i], bx[k], bz[k] = unit_force_step(bx[k], bz[k], lc, ls, h_x, h_z,
                                                              inv_d, flush)
         ixp, kp, kr, ku, cu = articulated_parts(m3[i], m4[i], m6[i], me[i], x, y, z, xp)
-        # along a straight stretch (relative angle 0) the cross term decays geometrically
-        # (factor < 1/2 per link): flushed at TINY of the inertia, long before it turns
-        # subnormal (~100x slower arithmetic), far below round-off; tested every 16th link
-        # only (a test per link costs ~10 % of the sweep)
-        if i & 15 == 0 and abs(kr * ixp) < TINY * (abs(kp * ixp) + abs(cu + ku * ixp)):
-            kr = 0.0
+        kr = flush_cross(i, ixp, kp, kr, ku, cu)
     if nrhs > 0:
         bx[0] = b0x
         bz[0] = b0z
@@ -406,18 +425,11 @@ def outward_sweep(
 
 
 @nb.njit(cache=True, inline="always")
-def outward_sweep_bias(sc: np.ndarray, n: int, zdd: float, sol: np.ndarray) -> tuple[float, float]:
-    """:func:`outward_sweep` of the applied-force right-hand side (with the velocity terms,
-    no armature) from the factors :func:`inward_sweep_ws` (with ``bias``) left in its scratch
-    ``sc``: h/D, R/D, l t and w^2 l t. Writes ``sol = [zdd, alpha_1..n]``; returns the end's
-    acceleration.
-
-    ``alpha_i = R/D - g . a_(i-1)`` (g = h/D) and ``a_i = a_(i-1) - w^2 l e + l t alpha_i``
-    make a_i affine in a_(i-1): ``a_i = P_i a_(i-1) + v_i`` with ``P = I - (l t) g^T`` and
-    ``v = (l t) R/D - w^2 l e``, formed first in a vectorised loop. The recursion's chain is
-    then a product and two sums per link (alpha_i, off the chain, from a_(i-1)); equal to
-    round-off.
-    """
+def outward_bias_map(sc: np.ndarray, n: int) -> None:
+    """The affine map ``a_i = P_i a_(i-1) + v_i`` of :func:`outward_sweep_bias` into the
+    scratch ``sc`` (rows P: xx, xz, zx, zz; v: x, z), from the factors :func:`inward_sweep_ws`
+    left there: ``P = I - (l t) g^T`` (g = h/D), ``v = (l t) R/D - w^2 l e``; loops without a
+    carried dependence (they vectorise)."""
     gx = sc[_S_GX]
     gz = sc[_S_GZ]
     rd = sc[_S_RD]
@@ -439,14 +451,39 @@ def outward_sweep_bias(sc: np.ndarray, n: int, zdd: float, sol: np.ndarray) -> t
     for i in range(n):
         vx[i] = lc[i] * rd[i] - wls[i]
         vz[i] = ls[i] * rd[i] + wlc[i]
+
+
+@nb.njit(cache=True, inline="always")
+def outward_bias_link(sc: np.ndarray, i: int, apx: float, apz: float
+                      ) -> tuple[float, float, float]:
+    """One link of :func:`outward_sweep_bias` (map in ``sc``, :func:`outward_bias_map`): from
+    the parent pin's acceleration ``(apx, apz)``, link i's angular acceleration ``R/D - g .
+    a_(i-1)`` (off the chain) and its lower pin's acceleration ``P_i a_(i-1) + v_i``."""
+    alpha = sc[_S_RD, i] - (sc[_S_GX, i] * apx + sc[_S_GZ, i] * apz)
+    ax = (sc[_S_VX, i] + sc[_S_PXX, i] * apx) + sc[_S_PXZ, i] * apz
+    az = (sc[_S_VZ, i] + sc[_S_PZZ, i] * apz) + sc[_S_PZX, i] * apx
+    return alpha, ax, az
+
+
+@nb.njit(cache=True, inline="always")
+def outward_sweep_bias(sc: np.ndarray, n: int, zdd: float, sol: np.ndarray) -> tuple[float, float]:
+    """:func:`outward_sweep` of the applied-force right-hand side (with the velocity terms,
+    no armature) from the factors :func:`inward_sweep_ws` (with ``bias``) left in its scratch
+    ``sc``: h/D, R/D, l t and w^2 l t. Writes ``sol = [zdd, alpha_1..n]``; returns the end's
+    acceleration.
+
+    ``alpha_i = R/D - g . a_(i-1)`` (g = h/D) and ``a_i = a_(i-1) - w^2 l e + l t alpha_i``
+    make a_i affine in a_(i-1): ``a_i = P_i a_(i-1) + v_i`` with ``P = I - (l t) g^T`` and
+    ``v = (l t) R/D - w^2 l e``, formed first in a vectorised loop (:func:`outward_bias_map`).
+    The recursion's chain is then a product and two sums per link (alpha_i, off the chain, from
+    a_(i-1); :func:`outward_bias_link`); equal to round-off.
+    """
+    outward_bias_map(sc, n)
     sol[0] = zdd
     apx = 0.0
     apz = zdd
     for i in range(n):
-        sol[i + 1] = rd[i] - (gx[i] * apx + gz[i] * apz)
-        ax = (vx[i] + pxx[i] * apx) + pxz[i] * apz
-        apz = (vz[i] + pzz[i] * apz) + pzx[i] * apx
-        apx = ax
+        sol[i + 1], apx, apz = outward_bias_link(sc, i, apx, apz)
     return apx, apz
 
 

@@ -63,7 +63,7 @@ def _radau_error(arr: np.ndarray, par: np.ndarray, h: float, lam1: float, dd: np
                  fq: np.ndarray, fv: np.ndarray, ws: tuple, err: np.ndarray) -> None:
     """The error estimate of the step of h just converged in ``ws`` (see the module docstring)
     with the slope ``f = (fq, fv)`` into ``err`` (``2(n+1)``: positions, then velocities)."""
-    fs, _wc, _sc, _xc, Zq, Zv, _fq, _fv, wk, _cw, _jm = ws
+    fs, _wc, _sc, _xc, Zq, Zv, _fq, _fv, wk, _cw, _jm, _yq, _fw2 = ws
     W, S, X = fs[4], fs[5], fs[6]
     rhs = wk[2]
     x = wk[3]

@@ -35,8 +35,8 @@ from the cubic through the step's four input samples (at 0, c_1, c_2, 1). The fi
 the stage increments extrapolates the previous step's collocation polynomial (the explicit
 Euler increments after a failed attempt and at the start of a run).
 
-Integrate layer: imports numba, numpy, :mod:`cable_sim.core.kernel` (checks, forward, links)
-and the sibling modules ``op_factor``, ``op_product``, ``op_solve``, ``run``.
+Integrate layer: imports numba, numpy, :mod:`cable_sim.core.kernel` (checks, forward, forward3,
+links) and the sibling modules ``op_factor``, ``op_product``, ``op_solve``, ``run``.
 """
 
 from __future__ import annotations
@@ -46,6 +46,7 @@ import numpy as np
 
 from cable_sim.core.kernel.checks import STATUS_OK, STATUS_SINGULAR, check_packed_ws
 from cable_sim.core.kernel.forward import fd_packed_ws, fd_trig
+from cable_sim.core.kernel.forward3 import fd3_packed_ws
 from cable_sim.core.kernel.links import link_trig
 from cable_sim.integrate.implicit.op_factor import _op_factor_trig
 from cable_sim.integrate.implicit.op_layout import _NS, _NW, _W_COS, _W_SIN
@@ -98,13 +99,18 @@ def radau_workspace(n: int) -> tuple:
     (:func:`cable_sim.integrate.implicit.run.factor_workspace`), the complex one's ``Wc, Sc,
     Xc``, stage increments ``Zq, Zv`` (3, n+1), stage slopes ``Fq, Fv`` (3, n+1), real rows
     (10, n+1; row 8 holds the anchor reaction, row 9 the accelerations at the step's start),
-    complex rows (5, n+1) and the joint map of the Newton test (5, n+1; :func:`_joint_map`)."""
+    complex rows (5, n+1), the joint map of the Newton test (5, n+1; :func:`_joint_map`), the
+    stage positions ``Yq`` (3, n+1) and the forward dynamics' workspaces of the first two stages
+    (2, ...; the third stage's is the real factorisation's, where its cos/sin stay for the next
+    step: :func:`cable_sim.core.kernel.forward3.fd3_packed_ws`)."""
     n1 = n + 1
-    return (factor_workspace(n), np.zeros((_NW, n), dtype=np.complex128),
+    fs = factor_workspace(n)
+    fw = fs[0]
+    return (fs, np.zeros((_NW, n), dtype=np.complex128),
             np.zeros(_NS, dtype=np.complex128), np.zeros((2, n1), dtype=np.complex128),
             np.zeros((3, n1)), np.zeros((3, n1)), np.zeros((3, n1)), np.zeros((3, n1)),
             np.zeros((10, max(n1, 2))), np.zeros((5, n1), dtype=np.complex128),
-            np.zeros((5, n1)))
+            np.zeros((5, n1)), np.zeros((3, n1)), np.zeros((2, fw.shape[0], fw.shape[1])))
 
 
 @nb.njit(cache=True, inline="always")
@@ -275,7 +281,7 @@ def _radau_step(arr: np.ndarray, par: np.ndarray, geometric: bool, predict: bool
     ``_STEP_NO_CONVERGENCE`` or ``_STEP_SINGULAR``; ``info[0]`` counts the force evaluations,
     ``info[3]`` the Newton iterations (``info`` as in :func:`_radau_fixed_run`)."""
     n1 = y.shape[0] // 2
-    fs, Wc, Sc, Xc, Zq, Zv, Fq, Fv, wk, cw, jm = ws
+    fs, Wc, Sc, Xc, Zq, Zv, Fq, Fv, wk, cw, jm, Yq, fw2 = ws
     fw, jw, F, kgeo, W, S, X = fs
     acc = wk[0]
     vp = wk[1]
@@ -284,7 +290,6 @@ def _radau_step(arr: np.ndarray, par: np.ndarray, geometric: bool, predict: bool
     rq = wk[4]
     rv = wk[5]
     rk = wk[6]
-    yq = wk[7]
     lam = wk[8, :2]
     q = y[:n1]
     v = y[n1:]
@@ -325,13 +330,13 @@ def _radau_step(arr: np.ndarray, par: np.ndarray, geometric: bool, predict: bool
     for it in range(maxit):
         info[3] += 1
         for i in range(3):  # the stage slopes: (v + Zv_i, the accelerations there)
-            fq = Fq[i]
             for j in range(n1):
-                yq[j] = q[j] + Zq[i, j]
-                fq[j] = v[j] + Zv[i, j]
-            if not fd_packed_ws(arr, par, us[1 + i], es[1 + i], yq, fq, Fv[i], lam, fw):
-                return _STEP_NO_CONVERGENCE  # a stage state the dynamics cannot take: not a fix
-            info[0] += 1
+                Yq[i, j] = q[j] + Zq[i, j]
+                Fq[i, j] = v[j] + Zv[i, j]
+        # the three stages' forward dynamics side by side (the last stage's in fw)
+        if not fd3_packed_ws(arr, par, us[1:], es[1:], Yq, Fq, Fv, lam, fw2[0], fw2[1], fw):
+            return _STEP_NO_CONVERGENCE  # a stage state the dynamics cannot take: not a fix
+        info[0] += 3
         # the real and the complex transformed systems' right-hand sides hg G - W
         _transformed_rhs(ti1, ti2, hg1, hg2, Fq, Fv, Zq, Zv, rq, rv, crq, crv)
         _solve_shifted(arr, par, hg1, W, W, S, X, rq, rv, rk, rhs, x)
