@@ -45,7 +45,7 @@ import numba as nb
 import numpy as np
 
 from cable_sim.core.kernel.checks import STATUS_OK, STATUS_SINGULAR, check_packed_ws
-from cable_sim.core.kernel.forward import fd_packed_ws, fd_trig
+from cable_sim.core.kernel.forward import fd_packed_ws, fd_trig, fd_workspace
 from cable_sim.core.kernel.forward3 import fd3_packed_ws
 from cable_sim.core.kernel.links import link_trig
 from cable_sim.integrate.implicit.op_factor import _op_factor_trig
@@ -101,16 +101,15 @@ def radau_workspace(n: int) -> tuple:
     (10, n+1; row 8 holds the anchor reaction, row 9 the accelerations at the step's start),
     complex rows (5, n+1), the joint map of the Newton test (5, n+1; :func:`_joint_map`), the
     stage positions ``Yq`` (3, n+1) and the forward dynamics' workspaces of the first two stages
-    (2, ...; the third stage's is the real factorisation's, where its cos/sin stay for the next
+    (:func:`~cable_sim.core.kernel.forward.fd_workspace`; the third stage's is the real
+    factorisation's, where its cos/sin stay for the next
     step: :func:`cable_sim.core.kernel.forward3.fd3_packed_ws`)."""
     n1 = n + 1
-    fs = factor_workspace(n)
-    fw = fs[0]
-    return (fs, np.zeros((_NW, n), dtype=np.complex128),
+    return (factor_workspace(n), np.zeros((_NW, n), dtype=np.complex128),
             np.zeros(_NS, dtype=np.complex128), np.zeros((2, n1), dtype=np.complex128),
             np.zeros((3, n1)), np.zeros((3, n1)), np.zeros((3, n1)), np.zeros((3, n1)),
             np.zeros((10, max(n1, 2))), np.zeros((5, n1), dtype=np.complex128),
-            np.zeros((5, n1)), np.zeros((3, n1)), np.zeros((2, fw.shape[0], fw.shape[1])))
+            np.zeros((5, n1)), np.zeros((3, n1)), (fd_workspace(n), fd_workspace(n)))
 
 
 @nb.njit(cache=True, inline="always")
