@@ -22,7 +22,8 @@ States: a V-shaped line whose dip lies on the bed, with links fully, partly and 
 (asserted), random velocities large enough that the damper cuts the contact interval short
 (the force ``k delta - c zdot`` reaches zero inside a link). Free and anchored ends, heave free
 and locked, with and without added mass; a real ``hg`` and a complex one (Radau IIA's complex
-eigenvalue, :mod:`cable_sim.integrate.implicit.radau`). Tolerance 1e-9 relative (the finite differences are
+eigenvalue, :mod:`cable_sim.integrate.implicit.radau`), and the two solved side by side as Radau
+IIA's Newton iteration does. Tolerance 1e-9 relative (the finite differences are
 good to ~1e-11 here); the bed's terms change the result by far more (asserted).
 """
 
@@ -188,6 +189,42 @@ def test_operator_with_contact_equals_dense(end: str, locked: bool, added: bool,
           f"{worst:.1e} (bed's terms change it by >= {effect:.1e})")
     assert worst < TOL
     assert effect > 1e3 * TOL
+
+
+@pytest.mark.parametrize("moving", [False, True])
+@pytest.mark.parametrize(("end", "locked", "added"), list(_cases()))
+def test_paired_solves_equal_dense(end: str, locked: bool, added: bool, moving: bool) -> None:
+    """Radau IIA's Newton iteration solves its real and its complex system side by side
+    (:func:`implicit.operator_solve_pair`): each answer equals the dense solve of its own
+    system (the dense references of the test above), and swapping the two right-hand sides
+    changes both (the sweeps do not mix the systems' rows)."""
+    n = 24
+    p = _params(end, locked, added, n)
+    m = CableModel.from_params(p)
+    bare = CableModel.from_params(p.replace(seabed=False))
+    rng = np.random.default_rng(11 + 2 * moving + 4 * locked + 8 * added + 16 * (end == "anchored"))
+    worst = 0.0
+    for _ in range(3):
+        q, qd = _state(m, rng, moving)
+        h = rng.uniform(0.05, 0.3)
+        hg, hgc = h / 3.6378, h / (2.6811 + 3.0504j)  # Radau IIA's h / lambda_1, h / lambda_2
+        kgeo = rng.uniform(0.0, 2.0e3, n)
+        M, D, K = implicit.dense_operator(bare, q, qd, kgeo)
+        Dc, Kc = _contact_reference(m, q, qd)
+        D, K = D + Dc, K + Kc
+        rhs = 1e3 * rng.normal(size=m.ndof)
+        rhsc = 1e3 * (rng.normal(size=m.ndof) + 1j * rng.normal(size=m.ndof))
+        x, xc = implicit.operator_solve_pair(m, q, qd, hg, hgc, rhs, rhsc, kgeo)
+        x_ref = _dense_solve(m, q, M + hg * D + hg * hg * K, rhs)
+        xc_ref = _dense_solve(m, q, M + hgc * D + hgc * hgc * K, rhsc)
+        worst = max(worst, np.abs(x - x_ref).max() / np.abs(x_ref).max(),
+                    np.abs(xc - xc_ref).max() / np.abs(xc_ref).max())
+        xs, xcs = implicit.operator_solve_pair(m, q, qd, hg, hgc, rhsc.real, rhs + 0j, kgeo)
+        assert np.abs(xs - x).max() > 1e-3 * np.abs(x).max()
+        assert np.abs(xcs - xc).max() > 1e-3 * np.abs(xc).max()
+    print(f"\n{end} locked={locked} added_mass={added} moving={moving}: paired O(n) solves vs "
+          f"dense {worst:.1e}")
+    assert worst < TOL
 
 
 def _positive(c0: float, c1: float, a: float, b: float) -> tuple[float, float]:

@@ -100,7 +100,12 @@ from __future__ import annotations
 
 from cable_sim.integrate.implicit import dense
 from cable_sim.integrate.implicit.dense import dense_operator
-from cable_sim.integrate.implicit.operator import geometric_stiffness, operator_product, operator_solve
+from cable_sim.integrate.implicit.operator import (
+    geometric_stiffness,
+    operator_product,
+    operator_solve,
+    operator_solve_pair,
+)
 from cable_sim.integrate.implicit.radau import RadauIIA, RadauIIAAdaptive
 from cable_sim.integrate.implicit.ros34 import Ros34PW2, Ros34PW2Adaptive
 from cable_sim.integrate.implicit.ros34prw import Ros34PRw, Ros34PRwAdaptive
@@ -119,6 +124,7 @@ __all__ = [
     "RadauIIA",
     "RadauIIAAdaptive",
     "operator_solve",
+    "operator_solve_pair",
     "operator_product",
     "dense_operator",
     "geometric_stiffness",

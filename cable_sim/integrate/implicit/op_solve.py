@@ -3,7 +3,8 @@
 force written as affine maps of the previous link's values (:func:`_solve_inward`,
 :func:`_solve_outward`), the solve with the anchored end's or heavy load's 2x2 correction
 (:func:`_op_solve`) and, for Radau IIA's Newton iteration, the same solve with the anchor's
-linearised Baumgarte stabilisation (:func:`_op_solve_stabilised`).
+linearised Baumgarte stabilisation (:func:`_op_solve_stabilised`), also for a real and a complex
+system at once (:func:`_op_solve_stabilised_pair`).
 
 Integrate layer: imports numba, numpy, :mod:`cable_sim.core.kernel` and the sibling
 ``op_layout``.
@@ -53,6 +54,20 @@ def _factor_rows(W: np.ndarray) -> tuple:
 
 
 @nb.njit(cache=True, inline="always")
+def _inward_link(i: int, l: np.ndarray, cth: np.ndarray, sth: np.ndarray, rows: tuple,
+                 rhs: np.ndarray, rr: np.ndarray, bn: float, bx: float, bz: float) -> tuple:
+    """Link i of :func:`_solve_inward`: ``-b_i`` into ``rr[i]`` and the next state
+    ``(b_n, b_x, b_z)`` from the old one (``rows``: :func:`_factor_rows`)."""
+    gxa, gza, ka, kxa, kza, axx, axz, azx, azz = rows
+    ltx = l[i] * cth[i]
+    ltz = l[i] * sth[i]
+    s = bn - rhs[i + 1]
+    rr[i] = -(s + (ltx * bx + ltz * bz))
+    return ((kxa[i] * bx + kza[i] * bz) + ka[i] * s, (axx[i] * bx - axz[i] * bz) - gxa[i] * s,
+            (azz[i] * bz - azx[i] * bx) - gza[i] * s)
+
+
+@nb.njit(cache=True, inline="always")
 def _solve_inward(l: np.ndarray, G: np.ndarray, W: np.ndarray, rhs: np.ndarray,
                   rr: np.ndarray) -> float:
     """:func:`_op_rhs_inward` of a generalised force (``-b_i`` into ``rr``; returns the
@@ -61,25 +76,49 @@ def _solve_inward(l: np.ndarray, G: np.ndarray, W: np.ndarray, rhs: np.ndarray,
     ``(b_x, b_z)' = (b_x, b_z) - g b`` (``k = beta/D``, ``g = u/D``) expanded into products of
     the old state with the factorisation's factors (:func:`~.op_factor._solve_factors`:
     ``k l t``, ``1 - g_x l t_x``, ...), so that on the chain each new entry costs three
-    products and two sums in a tree instead of the chain through b. Equal to round-off.
-    ``G``: the real geometry rows (``G is W`` for a real ``hg``)."""
+    products and two sums in a tree instead of the chain through b (:func:`_inward_link`).
+    Equal to round-off. ``G``: the real geometry rows (``G is W`` for a real ``hg``)."""
     cth = G[_W_COS]
     sth = G[_W_SIN]
-    gxa, gza, ka, kxa, kza, axx, axz, azx, azz = _factor_rows(W)
-    bn = 0.0
-    bx = 0.0
-    bz = 0.0
+    rows = _factor_rows(W)
+    bn = bx = bz = 0.0 * rhs[0]
     for i in range(l.shape[0] - 1, -1, -1):
-        ltx = l[i] * cth[i]
-        ltz = l[i] * sth[i]
-        s = bn - rhs[i + 1]
-        rr[i] = -(s + (ltx * bx + ltz * bz))
-        bn_new = (kxa[i] * bx + kza[i] * bz) + ka[i] * s
-        bx_new = (axx[i] * bx - axz[i] * bz) - gxa[i] * s
-        bz = (azz[i] * bz - azx[i] * bx) - gza[i] * s
-        bx = bx_new
-        bn = bn_new
+        bn, bx, bz = _inward_link(i, l, cth, sth, rows, rhs, rr, bn, bx, bz)
     return bz
+
+
+@nb.njit(cache=True, inline="always")
+def _solve_inward_pair(l: np.ndarray, G: np.ndarray, W: np.ndarray, rhs: np.ndarray,
+                       rr: np.ndarray, Wc: np.ndarray, rhsc: np.ndarray,
+                       rrc: np.ndarray) -> tuple:
+    """:func:`_solve_inward` of two systems on the same geometry ``G`` (a real factorisation W
+    and a complex one Wc) in one loop: two independent chains the core overlaps."""
+    cth = G[_W_COS]
+    sth = G[_W_SIN]
+    rows = _factor_rows(W)
+    rowsc = _factor_rows(Wc)
+    bn = bx = bz = 0.0 * rhs[0]
+    cn = cx = cz = 0.0 * rhsc[0]
+    for i in range(l.shape[0] - 1, -1, -1):
+        bn, bx, bz = _inward_link(i, l, cth, sth, rows, rhs, rr, bn, bx, bz)
+        cn, cx, cz = _inward_link(i, l, cth, sth, rowsc, rhsc, rrc, cn, cx, cz)
+    return bz, cz
+
+
+@nb.njit(cache=True, inline="always")
+def _outward_link(i: int, l: np.ndarray, cth: np.ndarray, sth: np.ndarray, idd: np.ndarray,
+                  rows: tuple, rr: np.ndarray, x: np.ndarray, ap: float, apx: float,
+                  apz: float) -> tuple:
+    """Link i of :func:`_solve_outward`: ``alpha_i`` into ``x[i + 1]`` and the next state
+    ``(alpha, a_x, a_z)`` from the old one (``rows``: :func:`_factor_rows`)."""
+    gxa, gza, ka, kxa, kza, axx, axz, azx, azz = rows
+    ltx = l[i] * cth[i]
+    ltz = l[i] * sth[i]
+    rd = rr[i] * idd[i]
+    alpha = (rd + ka[i] * ap) - (gxa[i] * apx + gza[i] * apz)
+    x[i + 1] = alpha
+    return (alpha, (ltx * rd + kxa[i] * ap) + (axx[i] * apx - azx[i] * apz),
+            (ltz * rd + kza[i] * ap) + (azz[i] * apz - axz[i] * apx))
 
 
 @nb.njit(cache=True, inline="always")
@@ -91,26 +130,60 @@ def _solve_outward(l: np.ndarray, G: np.ndarray, W: np.ndarray, rr: np.ndarray, 
     ``alpha' = R/D + k alpha - g . a``, ``a' = a + l t alpha'`` expanded so that the new pin
     acceleration is formed from the old state directly with the factorisation's factors
     (:func:`~.op_factor._solve_factors`; the map of ``a`` is the transpose of the inward
-    sweep's), not through ``alpha'``. Equal to round-off."""
+    sweep's), not through ``alpha'`` (:func:`_outward_link`). Equal to round-off."""
     cth = G[_W_COS]
     sth = G[_W_SIN]
     idd = W[_W_D]
-    gxa, gza, ka, kxa, kza, axx, axz, azx, azz = _factor_rows(W)
+    rows = _factor_rows(W)
     x[0] = zdd
-    ap = 0.0
-    apx = 0.0
+    ap = apx = 0.0 * zdd
     apz = zdd
     for i in range(l.shape[0]):
-        ltx = l[i] * cth[i]
-        ltz = l[i] * sth[i]
-        rd = rr[i] * idd[i]
-        alpha = (rd + ka[i] * ap) - (gxa[i] * apx + gza[i] * apz)
-        x[i + 1] = alpha
-        ax_new = (ltx * rd + kxa[i] * ap) + (axx[i] * apx - azx[i] * apz)
-        apz = (ltz * rd + kza[i] * ap) + (azz[i] * apz - axz[i] * apx)
-        apx = ax_new
-        ap = alpha
+        ap, apx, apz = _outward_link(i, l, cth, sth, idd, rows, rr, x, ap, apx, apz)
     return apx, apz
+
+
+@nb.njit(cache=True, inline="always")
+def _solve_outward_pair(l: np.ndarray, G: np.ndarray, W: np.ndarray, rr: np.ndarray,
+                        zdd: float, x: np.ndarray, Wc: np.ndarray, rrc: np.ndarray,
+                        zddc: complex, xc: np.ndarray) -> tuple:
+    """:func:`_solve_outward` of the two systems of :func:`_solve_inward_pair` in one loop."""
+    cth = G[_W_COS]
+    sth = G[_W_SIN]
+    idd = W[_W_D]
+    iddc = Wc[_W_D]
+    rows = _factor_rows(W)
+    rowsc = _factor_rows(Wc)
+    x[0] = zdd
+    xc[0] = zddc
+    ap = apx = 0.0 * zdd
+    apz = zdd
+    cp = cpx = 0.0 * zddc
+    cpz = zddc
+    for i in range(l.shape[0]):
+        ap, apx, apz = _outward_link(i, l, cth, sth, idd, rows, rr, x, ap, apx, apz)
+        cp, cpx, cpz = _outward_link(i, l, cth, sth, iddc, rowsc, rrc, xc, cp, cpx, cpz)
+    return apx, apz, cpx, cpz
+
+
+@nb.njit(cache=True, inline="always")
+def _platform_zdd(par: np.ndarray, S: np.ndarray, rhs: np.ndarray, bz: float) -> float:
+    """The platform's entry of a solve after its inward sweep (0 when heave-locked)."""
+    return 0.0 * bz if par[7] != 0.0 else (rhs[0] - bz) / (par[4] + S[_S_BETA0] + S[_S_AZZ])
+
+
+@nb.njit(cache=True, inline="always")
+def _end_correction(S: np.ndarray, X: np.ndarray, x: np.ndarray, apx: float, apz: float) -> None:
+    """Add the anchored end's or heavy load's 2x2 correction to a solve ``x`` whose free
+    outward sweep ended at the end acceleration ``(apx, apz)``."""
+    mode = S[_S_MODE]
+    if mode == _MODE_NONE:
+        return
+    eps = 1.0 / S[_S_MC] if mode == _MODE_HEAVY else 0.0
+    a11 = S[_S_J00] + eps
+    a22 = S[_S_J11] + eps
+    f0, f1 = solve_2x2(a11, S[_S_J01], S[_S_J10], a22, -apx, -apz)
+    add_columns(x, X[0], f0, X[1], f1)
 
 
 @nb.njit(cache=True, error_model="numpy", fastmath={"contract"})
@@ -125,16 +198,26 @@ def _op_solve(arr: np.ndarray, par: np.ndarray, G: np.ndarray, W: np.ndarray, S:
     l = arr[0]
     bcn = W[_W_BCN]
     bz = _solve_inward(l, G, W, rhs, bcn)
-    zdd = 0.0 if par[7] != 0.0 else (rhs[0] - bz) / (par[4] + S[_S_BETA0] + S[_S_AZZ])
-    apx, apz = _solve_outward(l, G, W, bcn, zdd, x)
-    mode = S[_S_MODE]
-    if mode == _MODE_NONE:
-        return
-    eps = 1.0 / S[_S_MC] if mode == _MODE_HEAVY else 0.0
-    a11 = S[_S_J00] + eps
-    a22 = S[_S_J11] + eps
-    f0, f1 = solve_2x2(a11, S[_S_J01], S[_S_J10], a22, -apx, -apz)
-    add_columns(x, X[0], f0, X[1], f1)
+    apx, apz = _solve_outward(l, G, W, bcn, _platform_zdd(par, S, rhs, bz), x)
+    _end_correction(S, X, x, apx, apz)
+
+
+@nb.njit(cache=True, error_model="numpy", fastmath={"contract"})
+def _op_solve_pair(arr: np.ndarray, par: np.ndarray, G: np.ndarray, W: np.ndarray,
+                   S: np.ndarray, X: np.ndarray, rhs: np.ndarray, x: np.ndarray, Wc: np.ndarray,
+                   Sc: np.ndarray, Xc: np.ndarray, rhsc: np.ndarray, xc: np.ndarray) -> None:
+    """:func:`_op_solve` with a real factorisation (``W, S, X``; ``G is W``) and a complex one
+    at the same geometry (``Wc, Sc, Xc``) at once, their sweeps side by side
+    (:func:`_solve_inward_pair`, :func:`_solve_outward_pair`). Equal to the two solves to
+    round-off."""
+    l = arr[0]
+    bcn = W[_W_BCN]
+    bcnc = Wc[_W_BCN]
+    bz, bzc = _solve_inward_pair(l, G, W, rhs, bcn, Wc, rhsc, bcnc)
+    apx, apz, cpx, cpz = _solve_outward_pair(l, G, W, bcn, _platform_zdd(par, S, rhs, bz), x,
+                                             Wc, bcnc, _platform_zdd(par, Sc, rhsc, bzc), xc)
+    _end_correction(S, X, x, apx, apz)
+    _end_correction(Sc, Xc, xc, cpx, cpz)
 
 
 @nb.njit(cache=True, inline="always")
@@ -170,6 +253,14 @@ def _op_solve_stabilised(arr: np.ndarray, par: np.ndarray, hg: complex, G: np.nd
     over a step with ``hg beta`` near 1 or more then diverges there (the stage states of an
     implicit Runge-Kutta step are off the constraint). Other end conditions: :func:`_op_solve`."""
     _op_solve(arr, par, G, W, S, X, rhs, x)
+    _stabilise(arr, par, hg, G, S, X, x, rv, rk)
+
+
+@nb.njit(cache=True, inline="always")
+def _stabilise(arr: np.ndarray, par: np.ndarray, hg: complex, G: np.ndarray, S: np.ndarray,
+               X: np.ndarray, x: np.ndarray, rv: np.ndarray, rk: np.ndarray) -> None:
+    """The anchor's linearised Baumgarte term of :func:`_op_solve_stabilised`, added to a
+    solve ``x`` of :func:`_op_solve` (nothing at other end conditions)."""
     if S[_S_MODE] != _MODE_CONSTRAINED:
         return
     alpha = par[13]
@@ -178,3 +269,18 @@ def _op_solve_stabilised(arr: np.ndarray, par: np.ndarray, hg: complex, G: np.nd
     scale = hg / (1.0 + hg * (2.0 * alpha + beta2 * hg))
     f0, f1 = solve_2x2(S[_S_J00], S[_S_J01], S[_S_J10], S[_S_J11], scale * jx, scale * jz)
     add_columns(x, X[0], f0, X[1], f1)
+
+
+@nb.njit(cache=True, inline="always")
+def _op_solve_stabilised_pair(arr: np.ndarray, par: np.ndarray, hg: float, hgc: complex,
+                              G: np.ndarray, W: np.ndarray, S: np.ndarray, X: np.ndarray,
+                              rhs: np.ndarray, x: np.ndarray, rv: np.ndarray, rk: np.ndarray,
+                              Wc: np.ndarray, Sc: np.ndarray, Xc: np.ndarray,
+                              rhsc: np.ndarray, xc: np.ndarray, rvc: np.ndarray,
+                              rkc: np.ndarray) -> None:
+    """:func:`_op_solve_stabilised` of a real system (``hg``, ``W, S, X``, ``G is W``) and a
+    complex one (``hgc``, ``Wc, Sc, Xc``) on the same geometry, solved side by side
+    (:func:`_op_solve_pair`)."""
+    _op_solve_pair(arr, par, G, W, S, X, rhs, x, Wc, Sc, Xc, rhsc, xc)
+    _stabilise(arr, par, hg, G, S, X, x, rv, rk)
+    _stabilise(arr, par, hgc, G, Sc, Xc, xc, rvc, rkc)

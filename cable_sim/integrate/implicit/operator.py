@@ -41,8 +41,8 @@ and the product also use W's scratch rows, so nothing is allocated per call.
 Modules, one per part: ``op_layout`` (the workspace's rows), ``op_terms`` (per-link terms: armature,
 drag, contact, tension stiffness), ``op_factor`` (the inward 3x3 sweep and the unit end forces),
 ``op_solve`` (the solve's two sweeps), ``op_product`` (``hg D rd + hg K rk``). This module keeps
-the theory above, the Python-level API (:func:`operator_solve`, :func:`operator_product`,
-:func:`geometric_stiffness`) and re-exports the compiled pieces the schemes use.
+the theory above, the Python-level API (:func:`operator_solve`, :func:`operator_solve_pair`,
+:func:`operator_product`, :func:`geometric_stiffness`) and re-exports the compiled pieces the schemes use.
 
 Integrate layer: imports numpy, :mod:`cable_sim.core.kernel.packing`, :mod:`cable_sim.core.model`
 and the sibling ``op_*`` modules.
@@ -57,11 +57,12 @@ from cable_sim.core.model import CableModel
 from cable_sim.integrate.implicit.op_factor import _op_factor, _op_factor_trig
 from cable_sim.integrate.implicit.op_layout import _NS, _NW, _W_COS, _W_SIN
 from cable_sim.integrate.implicit.op_product import _dk_product
-from cable_sim.integrate.implicit.op_solve import _op_solve
+from cable_sim.integrate.implicit.op_solve import _op_solve, _op_solve_pair
 from cable_sim.integrate.implicit.op_terms import _kgeo_from_forces
 
-__all__ = ["geometric_stiffness", "operator_solve", "operator_product", "_op_factor", "_op_factor_trig",
-           "_op_solve", "_dk_product", "_kgeo_from_forces", "_NS", "_NW", "_W_COS", "_W_SIN"]
+__all__ = ["geometric_stiffness", "operator_solve", "operator_solve_pair", "operator_product",
+           "_op_factor", "_op_factor_trig", "_op_solve", "_op_solve_pair", "_dk_product",
+           "_kgeo_from_forces", "_NS", "_NW", "_W_COS", "_W_SIN"]
 
 
 # --------------------------------------------------------------------------------------------
@@ -152,6 +153,61 @@ def operator_solve(
     x = np.empty(model.ndof, dtype=W.dtype)
     _op_solve(arr, par, G, W, S, X, np.ascontiguousarray(rhs, dtype=W.dtype), x)
     return x
+
+
+def operator_solve_pair(
+    model: CableModel,
+    q: np.ndarray,
+    qd: np.ndarray,
+    hg: float,
+    hgc: complex,
+    rhs: np.ndarray,
+    rhsc: np.ndarray,
+    kgeo: np.ndarray | None = None,
+    horizon: float = 0.0,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Two solves of :func:`operator_solve` at once, as Radau IIA's Newton iteration does them:
+    ``(M + hg D + hg^2 K) x = rhs`` with a real ``hg`` and the same with a complex ``hgc`` and
+    right-hand side ``rhsc``, the complex factorisation reading its geometry from the real one
+    and the two systems' sweeps side by side
+    (:func:`cable_sim.integrate.implicit.op_solve._op_solve_pair`).
+
+    Parameters
+    ----------
+    model, q, qd, kgeo, horizon
+        See :func:`operator_solve`.
+    hg : float
+        The real system's ``gamma h`` [s].
+    hgc : complex
+        The complex system's ``h / lambda`` [s].
+    rhs, rhsc : ndarray (n+1,)
+        The real and the complex generalised force.
+
+    Returns
+    -------
+    x, xc : ndarray (n+1,)
+        The real and the complex solution.
+
+    Raises
+    ------
+    numpy.linalg.LinAlgError
+        If an anchored end's 2x2 Schur matrix is singular.
+    """
+    arr, par, _, W, S, X, ok = _factor_fast(model, q, qd, float(hg), kgeo, horizon)
+    Wc = np.zeros((_NW, model.n), dtype=complex)
+    Sc = np.zeros(_NS, dtype=complex)
+    Xc = np.zeros((2, model.ndof), dtype=complex)
+    okc = _op_factor_trig(arr, par, np.ascontiguousarray(q, dtype=float),
+                          np.ascontiguousarray(qd, dtype=float), complex(hgc),
+                          np.zeros(model.n) if kgeo is None else np.ascontiguousarray(kgeo, dtype=float),
+                          W, Wc, Sc, Xc, float(horizon))
+    if not (ok and okc):
+        raise np.linalg.LinAlgError("singular anchor constraint matrix J M~^-1 J^T")
+    x = np.empty(model.ndof)
+    xc = np.empty(model.ndof, dtype=complex)
+    _op_solve_pair(arr, par, W, W, S, X, np.ascontiguousarray(rhs, dtype=float), x, Wc, Sc, Xc,
+                   np.ascontiguousarray(rhsc, dtype=complex), xc)
+    return x, xc
 
 
 def operator_product(
