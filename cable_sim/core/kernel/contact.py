@@ -209,7 +209,9 @@ def seabed_energy(l: np.ndarray, zb: float, kb: np.ndarray, z0: float, cth: np.n
     return pot
 
 
-@nb.njit(cache=True)
+# ``_nrt=True`` set here, not inherited: the hot kernels that call it compile without numba's
+# runtime (:data:`cable_sim.core.kernel.jit.HOT_KERNEL`), and this one allocates its scratch
+@nb.njit(cache=True, _nrt=True)
 def seabed_links_nb(
     l: np.ndarray, zb: float, kb: np.ndarray, cb: np.ndarray, mua: np.ndarray, mut: np.ndarray,
     vc: float, q: np.ndarray, qd: np.ndarray, cth: np.ndarray, sth: np.ndarray, F: np.ndarray,

@@ -72,6 +72,7 @@ import numpy as np
 from cable_sim.core.dynamics import NO_INPUT, Inputs
 from cable_sim.core.kernel.anchor import end_position
 from cable_sim.core.kernel.contact import seabed_links_nb
+from cable_sim.core.kernel.jit import HOT_KERNEL
 from cable_sim.core.kernel.links import (
     joint_torques,
     link_trig,
@@ -260,7 +261,7 @@ def platform_force(par: np.ndarray, u: float, eta: float, q: np.ndarray, qd: np.
     return q0
 
 
-@nb.njit(cache=True, error_model="numpy", fastmath={"contract"})
+@nb.njit(**HOT_KERNEL)
 def fd_packed_ws(arr: np.ndarray, par: np.ndarray, u: float, eta: float, q: np.ndarray,
                  qd: np.ndarray, qdd: np.ndarray, lam: np.ndarray, ws: np.ndarray,
                  trig_ready: bool = False) -> bool:

@@ -38,6 +38,7 @@ from cable_sim.core.kernel.forward import (
     platform_force,
 )
 from cable_sim.core.kernel.frames import to_world
+from cable_sim.core.kernel.jit import HOT_KERNEL
 from cable_sim.core.kernel.packing import ARR_MK
 from cable_sim.core.kernel.sweeps import (
     _K_HM,
@@ -113,7 +114,7 @@ def _platform_acceleration(par: np.ndarray, u: float, eta: float, q: np.ndarray,
     return (platform_force(par, u, eta, q, qd) - b0z) / (par[4] + azz)
 
 
-@nb.njit(cache=True, error_model="numpy", fastmath={"contract"})
+@nb.njit(**HOT_KERNEL)
 def fd3_packed_ws(arr: np.ndarray, par: np.ndarray, u: np.ndarray, eta: np.ndarray,
                   q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, lam: np.ndarray,
                   ws0: np.ndarray, ws1: np.ndarray, ws2: np.ndarray) -> bool:

@@ -15,6 +15,7 @@ import numba as nb
 import numpy as np
 
 from cable_sim.core.kernel.frames import relative_trig, to_parent_frame, to_world
+from cable_sim.core.kernel.jit import HOT_KERNEL
 from cable_sim.core.kernel.links import from_link_frame, link_trig, woodbury_load
 from cable_sim.core.kernel.packing import ARR_MK
 from cable_sim.core.kernel.sweeps import _K_IL2, TINY, outward_sweep, singular_2x2
@@ -251,7 +252,7 @@ def _op_rhs_inward(l: np.ndarray, G: np.ndarray, W: np.ndarray, rhs: np.ndarray,
     return bx, bz
 
 
-@nb.njit(cache=True, error_model="numpy", fastmath={"contract"})
+@nb.njit(**HOT_KERNEL)
 def _op_unit_forces(arr: np.ndarray, par: np.ndarray, G: np.ndarray, W: np.ndarray,
                     S: np.ndarray, X: np.ndarray) -> None:
     """``X = M~^-1 J^T`` (two unit end forces, +x and +z) and ``J X`` into S."""
@@ -278,7 +279,7 @@ def _op_factor(arr: np.ndarray, par: np.ndarray, q: np.ndarray, qd: np.ndarray, 
     return _op_factor_trig(arr, par, q, qd, hg, kgeo, W, W, S, X, horizon)
 
 
-@nb.njit(cache=True, error_model="numpy", fastmath={"contract"})
+@nb.njit(**HOT_KERNEL)
 def _op_factor_trig(arr: np.ndarray, par: np.ndarray, q: np.ndarray, qd: np.ndarray, hg: float,
                     kgeo: np.ndarray, G: np.ndarray, W: np.ndarray, S: np.ndarray, X: np.ndarray,
                     horizon: float) -> bool:

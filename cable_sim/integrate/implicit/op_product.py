@@ -12,6 +12,7 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
+from cable_sim.core.kernel.jit import HOT_KERNEL
 from cable_sim.core.kernel.links import (
     centre_velocity,
     from_link_frame,
@@ -34,7 +35,7 @@ from cable_sim.integrate.implicit.op_layout import (
 from cable_sim.integrate.implicit.op_terms import _contact_moments
 
 
-@nb.njit(cache=True, error_model="numpy", fastmath={"contract"})
+@nb.njit(**HOT_KERNEL)
 def _dk_product(arr: np.ndarray, par: np.ndarray, hg: float, G: np.ndarray, W: np.ndarray,
                 rd: np.ndarray, rk: np.ndarray, out: np.ndarray) -> None:
     """``out = hg D rd + hg K rk`` with the local ``D``, ``K`` of the factorisation in W
@@ -61,7 +62,7 @@ def _dk_product(arr: np.ndarray, par: np.ndarray, hg: float, G: np.ndarray, W: n
         _contact_product(arr, hg, G, W, rd, rk, out)
 
 
-@nb.njit(cache=True, error_model="numpy", fastmath={"contract"})
+@nb.njit(**HOT_KERNEL)
 def _contact_product(arr: np.ndarray, hg: float, G: np.ndarray, W: np.ndarray, rd: np.ndarray,
                      rk: np.ndarray, out: np.ndarray) -> None:
     """``out += int J_z^T hg (c_b J_z rd + k_b J_z rk) ds`` over each link's contact interval:
@@ -98,7 +99,7 @@ def _contact_product(arr: np.ndarray, hg: float, G: np.ndarray, W: np.ndarray, r
     out[0] += sz
 
 
-@nb.njit(cache=True, error_model="numpy", fastmath={"contract"})
+@nb.njit(**HOT_KERNEL)
 def _morison_product(l: np.ndarray, G: np.ndarray, W: np.ndarray, rd: np.ndarray,
                      out: np.ndarray) -> None:
     """``out += J_c^T (hg G) J_c rd``: centre "velocities" ``J_c rd``, forces ``hg G J_c rd``,

@@ -15,6 +15,7 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
+from cable_sim.core.kernel.jit import HOT_KERNEL
 from cable_sim.core.kernel.sweeps import add_columns, solve_2x2
 from cable_sim.integrate.implicit.op_layout import (
     _MODE_CONSTRAINED,
@@ -186,7 +187,7 @@ def _end_correction(S: np.ndarray, X: np.ndarray, x: np.ndarray, apx: float, apz
     add_columns(x, X[0], f0, X[1], f1)
 
 
-@nb.njit(cache=True, error_model="numpy", fastmath={"contract"})
+@nb.njit(**HOT_KERNEL)
 def _op_solve(arr: np.ndarray, par: np.ndarray, G: np.ndarray, W: np.ndarray, S: np.ndarray,
               X: np.ndarray, rhs: np.ndarray, x: np.ndarray) -> None:
     """Solve ``M~ x = rhs`` (anchored: with ``J x = 0``) using a factorisation from
@@ -202,7 +203,7 @@ def _op_solve(arr: np.ndarray, par: np.ndarray, G: np.ndarray, W: np.ndarray, S:
     _end_correction(S, X, x, apx, apz)
 
 
-@nb.njit(cache=True, error_model="numpy", fastmath={"contract"})
+@nb.njit(**HOT_KERNEL)
 def _op_solve_pair(arr: np.ndarray, par: np.ndarray, G: np.ndarray, W: np.ndarray,
                    S: np.ndarray, X: np.ndarray, rhs: np.ndarray, x: np.ndarray, Wc: np.ndarray,
                    Sc: np.ndarray, Xc: np.ndarray, rhsc: np.ndarray, xc: np.ndarray) -> None:

@@ -15,6 +15,7 @@ import numba as nb
 import numpy as np
 
 from cable_sim.core.kernel.contact import touching_interval
+from cable_sim.core.kernel.jit import HOT_KERNEL
 from cable_sim.core.kernel.links import centre_velocity, link_frame_velocity, next_pin_velocity
 from cable_sim.core.kernel.trig import sincos
 from cable_sim.integrate.implicit.op_layout import (
@@ -142,7 +143,7 @@ def _contact_moments(a: float, b: float) -> tuple[float, float, float]:
     return h, 0.5 * h * (a + b), h * ((a + b) * (a + b) + a * a + b * b) / 6.0
 
 
-@nb.njit(cache=True, error_model="numpy", fastmath={"contract"})
+@nb.njit(**HOT_KERNEL)
 def _kgeo_from_forces(arr: np.ndarray, cth: np.ndarray, sth: np.ndarray, F: np.ndarray,
                       kgeo: np.ndarray) -> None:
     """Tension stiffness ``kappa_i = max(0, l_i T_i)``, T_i the mean axial tension of link i
