@@ -23,12 +23,14 @@ from .mujoco_best import best_plot, mujoco_best
 from .mujoco_compare import mujoco_compare
 from .plan import Plan, PlanError, make_plan
 from .report import make_summary, write_csv
+from .retime import retime
 from .settings import (
     ERROR_FLOOR,
     FREE_FALL_ONLY_N,
     N_LIST,
     OPEN_ENDED_DURATION,
     REF_STEP,
+    REPEATS,
     SCENES,
     STEPS,
     TOLS,
@@ -113,6 +115,9 @@ def parse_args(argv=None) -> argparse.Namespace:
                          "measured rows (ok, failed, over budget) are taken over instead of being run "
                          "again (matched on scene, n, integrator, step/rtol, duration, kernel); the "
                          "rows keep their measurement and say where they came from (column source)")
+    ap.add_argument("--repeats", type=int, default=REPEATS,
+                    help="timings of each cheap run within 1 cm (its median is its cost; see "
+                         f"cable_sim.analysis.bench.retime; default {REPEATS}, 1: single timings)")
     ap.add_argument("--max-wall", type=float, default=math.inf,
                     help="wall seconds after which the remaining work-precision runs are skipped")
     return ap.parse_args(argv)
@@ -228,6 +233,7 @@ def main(argv=None) -> int:
     wp, refs = run_workprecision(plan)
     write_csv(plan.out / "workprecision.csv", wp)
     wp += morison_step(plan)
+    retime(wp, plan.args.budget, kernel=plan.kernel, repeats=plan.args.repeats)
     write_csv(plan.out / "workprecision.csv", wp)
     disc = by_scene(plan.scenes, refs)
     write_csv(plan.out / "discretisation.csv", disc)

@@ -1,6 +1,6 @@
 """The benchmark's text outputs: CSV files and the markdown summary for the README (summary.md).
 
-Part of the analysis layer; imports numpy and the standard library only.
+Part of the analysis layer; imports numpy, the standard library and :mod:`.settings` only.
 """
 
 from __future__ import annotations
@@ -11,6 +11,8 @@ import platform
 from pathlib import Path
 
 import numpy as np
+
+from .settings import CLOSE
 
 
 def write_csv(path: Path, rows: list[dict]) -> None:
@@ -57,8 +59,12 @@ def _header(argv, kernel, why, integs, args, wp, elapsed) -> list[str]:
         "schemes: one `solve_ivp` call). Error = max over joints and 0.5 s samples of the joint-position "
         "distance to a reference at the same n "
         f"(DOP853 rtol=atol={args.ref_rtol:g} for n <= {args.dop853_max_n}, else rosenbrock2 at h = "
-        f"{args.ref_step:g} s with its error estimated from h vs 2h). Single runs on a shared machine "
-        "(other jobs were running): timings carry noise of tens of per cent.",
+        f"{args.ref_step:g} s with its error estimated from h vs 2h). Each run is timed once; a "
+        "single timing moves by tens of per cent with the machine's load, so every run within 1 cm "
+        f"whose timing is within {CLOSE:g}x of the cheapest at its (scene, n) is timed "
+        f"{getattr(args, 'repeats', 1)} times in all (round robin) and its cost is their median "
+        "(columns `repeats`, `wall_spread` = largest / smallest; `retime.py`): the cost per n, the "
+        "slopes and the per-n targets read these medians.",
         "",
     ]
 

@@ -31,6 +31,12 @@ OPEN_ENDED_DURATION = 30.0
 ERROR_BOUND = 0.01
 #: Default reference step of the rosenbrock2 reference (large n) [s].
 REF_STEP = 1e-4
+#: Timings of each cheap run within the bound (the work-precision run's included), whose median
+#: is its cost (:mod:`.retime`).
+REPEATS = 5
+#: A run within the bound is timed again when its single cost is at most this times the
+#: cheapest one's at its (scene, n) (:mod:`.retime`).
+CLOSE = 1.5
 #: Below this error a smaller step / tighter tolerance is not run: 1e-3 of the bound [m].
 ERROR_FLOOR = 1e-5
 
