@@ -27,6 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from .references import reference
+from .resume import row_setting
 from .runs import error, is_adaptive, simulate
 from .settings import ERROR_BOUND, log
 
@@ -70,8 +71,7 @@ def _retime(chosen: dict[str, dict], integ: str, n: int, duration: float, budget
         for seabed, row in chosen.items():
             if sum(walls[seabed]) * 2 > budget:
                 continue
-            s = row["rtol"] if row["kind"] == "adaptive" else row["step"]
-            again = simulate(SCENE, n, integ, s, duration, budget=budget, kernel=kernel,
+            again = simulate(SCENE, n, integ, row_setting(row), duration, budget=budget, kernel=kernel,
                              overrides=CASES[seabed])
             if again.ok:
                 walls[seabed].append(again.wall)

@@ -125,7 +125,7 @@ def make_plan(args: argparse.Namespace) -> Plan:
         steps = args.steps or list(STEPS)
         tols = args.tols or list(TOLS)
         mj_n = args.mujoco_n or [20, 80, 160]
-    if getattr(args, "repeats", 1) < 1:
+    if args.repeats < 1:
         raise PlanError(f"parameter 'repeats' = {args.repeats}; allowed: an integer >= 1")
     integs = args.integrators or avail
     bad = [i for i in integs if i not in avail]

@@ -62,7 +62,7 @@ def _header(argv, kernel, why, integs, args, wp, elapsed) -> list[str]:
         f"{args.ref_step:g} s with its error estimated from h vs 2h). Each run is timed once; a "
         "single timing moves by tens of per cent with the machine's load, so every run within 1 cm "
         f"whose timing is within {CLOSE:g}x of the cheapest at its (scene, n) is timed "
-        f"{getattr(args, 'repeats', 1)} times in all (round robin) and its cost is their median "
+        f"{args.repeats} times in all (round robin) and its cost is their median "
         "(columns `repeats`, `wall_spread` = largest / smallest; `retime.py`): the cost per n, the "
         "slopes and the per-n targets read these medians.",
         "",

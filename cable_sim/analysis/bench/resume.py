@@ -17,6 +17,11 @@ def row_key(scene: str, n: int, integ: str, setting: float, duration: float, ker
     return (scene, int(n), integ, float(f"{setting:.6g}"), float(f"{duration:.6g}"), kernel)
 
 
+def row_setting(row: dict) -> float:
+    """The setting of a work-precision row: its step [s] (fixed) or rtol = atol (adaptive)."""
+    return row["rtol"] if row["kind"] == "adaptive" else row["step"]
+
+
 def load_resume(paths) -> dict[tuple, dict]:
     """Measured rows of earlier ``workprecision.csv`` files, keyed like the runs (see --resume)."""
     rows: dict[tuple, dict] = {}
@@ -29,7 +34,6 @@ def load_resume(paths) -> dict[tuple, dict]:
                            else float(v) if v != "" else float("nan")) for k, v in r.items()}
                 if row.get("source", "this run") == "this run":
                     row["source"] = str(p)
-                setting = row["rtol"] if row["kind"] == "adaptive" else row["step"]
-                rows[row_key(row["scene"], row["n"], row["integrator"], setting, row["duration"],
+                rows[row_key(row["scene"], row["n"], row["integrator"], row_setting(row), row["duration"],
                              row["kernel"])] = row
     return rows

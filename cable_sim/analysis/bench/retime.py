@@ -11,16 +11,17 @@ their medians (issue #13: "medians of repeated runs"), ``repeats`` their count a
 ``wall_spread`` the largest over the smallest. A candidate's single timing would have to be
 more than ``CLOSE`` times too fast for one left out to be the cheapest by its median.
 
-Part of the analysis layer; imports numpy and the bench modules :mod:`.runs`, :mod:`.settings`.
+Part of the analysis layer; imports numpy and the bench modules :mod:`.resume`, :mod:`.runs`,
+:mod:`.settings`.
 """
 
 from __future__ import annotations
 
-import math
 from collections import defaultdict
 
 import numpy as np
 
+from .resume import row_setting
 from .runs import simulate
 from .settings import CLOSE, ERROR_BOUND, REPEATS, log
 
@@ -43,20 +44,15 @@ def candidates(rows: list[dict], bound: float = ERROR_BOUND, close: float = CLOS
     return out
 
 
-def _setting(row: dict) -> float:
-    """The step (fixed) or rtol (adaptive) of a work-precision row."""
-    return row["rtol"] if row["kind"] == "adaptive" else row["step"]
-
-
 def _apply(row: dict, walls: list[float], inputs: list[float]) -> None:
-    """The row's timing columns from all its timings (the first is the ladder's)."""
+    """The row's timing columns from all its timings (the first is the ladder's, the row's own
+    ``wall``; ``us_per_step``, nan for adaptive rows, scales with the wall)."""
     w = float(np.median(walls))
-    row.update(wall=w, wall_inputs=float(np.median(inputs)), cost=w / row["duration"],
-               rtf=row["duration"] / w, repeats=len(walls),
+    wi = float(np.median(inputs))
+    dur = row["duration"]
+    row.update(us_per_step=row["us_per_step"] * w / row["wall"], wall=w, wall_inputs=wi,
+               cost=w / dur, rtf=dur / w, rtf_incl_inputs=dur / (w + wi), repeats=len(walls),
                wall_spread=max(walls) / min(walls))
-    row["rtf_incl_inputs"] = row["duration"] / (w + row["wall_inputs"])
-    if math.isfinite(row.get("us_per_step", math.nan)) and row["step"] > 0:
-        row["us_per_step"] = 1e6 * w * row["step"] / row["duration"]
 
 
 def retime(rows: list[dict], budget: float, kernel: str = "fast", repeats: int = REPEATS,
@@ -68,29 +64,27 @@ def retime(rows: list[dict], budget: float, kernel: str = "fast", repeats: int =
     for r in rows:
         r.setdefault("repeats", 1)
         r.setdefault("wall_spread", 1.0)
-    picked = [r for rr in candidates(rows, bound).values() for r in rr]
-    walls = {id(r): [r["wall"]] for r in picked}
-    inputs = {id(r): [r["wall_inputs"]] for r in picked}
-    failed: set[int] = set()
+    # per candidate: its row and its timings (wall, inputs); dropped when a repeat fails
+    timed = [(r, [r["wall"]], [r["wall_inputs"]]) for rr in candidates(rows, bound).values()
+             for r in rr]
     for _ in range(repeats - 1):
-        for r in picked:
-            if id(r) in failed:
-                continue
+        still = []
+        for r, walls, inputs in timed:
             base, _, drag = r["scene"].partition("+")
-            done = run(base, r["n"], r["integrator"], _setting(r), r["duration"], budget=budget,
-                       drag=drag or None, kernel=kernel)
+            done = run(base, r["n"], r["integrator"], row_setting(r), r["duration"],
+                       budget=budget, drag=drag or None, kernel=kernel)
             if not done.ok:
-                failed.add(id(r))
                 log(f"retiming {r['scene']} n={r['n']} {r['integrator']}: {done.status}")
                 continue
-            walls[id(r)].append(done.wall)
-            inputs[id(r)].append(done.wall_inputs)
-    for r in picked:
-        if id(r) not in failed:
-            _apply(r, walls[id(r)], inputs[id(r)])
-    log(f"retimed {len(picked) - len(failed)} runs within {bound:g} m, {repeats} timings each "
+            walls.append(done.wall)
+            inputs.append(done.wall_inputs)
+            still.append((r, walls, inputs))
+        timed = still
+    for r, walls, inputs in timed:
+        _apply(r, walls, inputs)
+    log(f"retimed {len(timed)} runs within {bound:g} m, {repeats} timings each "
         "(their medians from here on)")
-    return len(picked) - len(failed)
+    return len(timed)
 
 
 __all__ = ["MAX_CANDIDATES", "candidates", "retime"]
