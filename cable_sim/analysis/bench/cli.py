@@ -116,8 +116,9 @@ def parse_args(argv=None) -> argparse.Namespace:
                          "again (matched on scene, n, integrator, step/rtol, duration, kernel); the "
                          "rows keep their measurement and say where they came from (column source)")
     ap.add_argument("--repeats", type=int, default=REPEATS,
-                    help="timings of each cheap run within 1 cm (its median is its cost; see "
-                         f"cable_sim.analysis.bench.retime; default {REPEATS}, 1: single timings)")
+                    help="timed blocks of each cheap run within 1 cm (the median of their means is "
+                         f"its cost; see cable_sim.analysis.bench.retime; default {REPEATS}, 1: "
+                         "single timings)")
     ap.add_argument("--max-wall", type=float, default=math.inf,
                     help="wall seconds after which the remaining work-precision runs are skipped")
     return ap.parse_args(argv)

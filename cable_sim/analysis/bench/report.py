@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .settings import CLOSE
+from .settings import BLOCK_WALL, CLOSE
 
 
 def write_csv(path: Path, rows: list[dict]) -> None:
@@ -61,10 +61,12 @@ def _header(argv, kernel, why, integs, args, wp, elapsed) -> list[str]:
         f"(DOP853 rtol=atol={args.ref_rtol:g} for n <= {args.dop853_max_n}, else rosenbrock2 at h = "
         f"{args.ref_step:g} s with its error estimated from h vs 2h). Each run is timed once; a "
         "single timing moves by tens of per cent with the machine's load, so every run within 1 cm "
-        f"whose timing is within {CLOSE:g}x of the cheapest at its (scene, n) is timed "
-        f"{args.repeats} times in all (round robin) and its cost is their median "
-        "(columns `repeats`, `wall_spread` = largest / smallest; `retime.py`): the cost per n, the "
-        "slopes and the per-n targets read these medians.",
+        f"whose timing is within {CLOSE:g}x of the cheapest at its (scene, n) is timed again "
+        f"in {args.repeats} blocks (round robin), each running it back to back until the runs' "
+        f"walls add up to {BLOCK_WALL:g} s, and its cost is the median of the block means "
+        "(columns `repeats` = blocks, `block_runs` = runs in all, `wall_spread` = largest / "
+        "smallest block mean; `retime.py`): the cost per n, the slopes and the per-n targets "
+        "read these medians.",
         "",
     ]
 

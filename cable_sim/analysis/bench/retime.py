@@ -1,15 +1,22 @@
 """The cheap runs within the error bound timed again: their cost becomes a median of repeats.
 
 A work-precision run is timed once, and a single timing of a run that takes milliseconds moves
-by tens of per cent with the machine's load; the cheapest run per (scene, n), the row the
-targets and the cost slope read, is then as much the luckiest timing as the cheapest setting.
-So after the ladders every successful run within :data:`~.settings.ERROR_BOUND` whose single
-timing is within :data:`~.settings.CLOSE` of the cheapest one at its (scene, n) is run again (at most
-:data:`MAX_CANDIDATES` of them, cheapest first), round robin so that all of them see the same
-machine load, until each has :data:`~.settings.REPEATS` timings; its ``wall`` and ``wall_inputs`` become
-their medians (issue #13: "medians of repeated runs"), ``repeats`` their count and
-``wall_spread`` the largest over the smallest. A candidate's single timing would have to be
-more than ``CLOSE`` times too fast for one left out to be the cheapest by its median.
+by tens of per cent with the machine's load and with what ran just before it (a run right
+after a different configuration starts with cold caches); the cheapest run per (scene, n), the
+row the targets and the cost slope read, is then as much the luckiest timing as the cheapest
+setting. So after the ladders every successful run within :data:`~.settings.ERROR_BOUND` whose
+single timing is within :data:`~.settings.CLOSE` of the cheapest one at its (scene, n) is timed
+again (at most :data:`MAX_CANDIDATES` of them, cheapest first) in :data:`~.settings.REPEATS`
+blocks. A block runs the configuration back to back until the walls of its runs add up to
+:data:`~.settings.BLOCK_WALL` (at least once; the same rule as the MuJoCo pairs of
+:mod:`.mujoco_best`), and its timing is the mean wall of those runs: the cost of the scheme
+running continuously, as in a node, rather than of one cold start. The blocks go round robin
+over the candidates so that all of them see the same machine load; a row's ``wall`` and
+``wall_inputs`` become the medians of its block means (issue #13: "medians of repeated runs"),
+``repeats`` the number of blocks, ``block_runs`` the runs in all of them and ``wall_spread``
+the largest block mean over the smallest. The ladder's single timing only picks the candidates:
+one left out would need a single timing more than ``CLOSE`` times too slow to be the cheapest
+by its median.
 
 Part of the analysis layer; imports numpy and the bench modules :mod:`.resume`, :mod:`.runs`,
 :mod:`.settings`.
@@ -23,7 +30,7 @@ import numpy as np
 
 from .resume import row_setting
 from .runs import simulate
-from .settings import CLOSE, ERROR_BOUND, REPEATS, log
+from .settings import BLOCK_WALL, CLOSE, ERROR_BOUND, REPEATS, log
 
 #: Candidates per (scene, n) at most.
 MAX_CANDIDATES = 6
@@ -44,46 +51,65 @@ def candidates(rows: list[dict], bound: float = ERROR_BOUND, close: float = CLOS
     return out
 
 
-def _apply(row: dict, walls: list[float], inputs: list[float]) -> None:
-    """The row's timing columns from all its timings (the first is the ladder's, the row's own
-    ``wall``; ``us_per_step``, nan for adaptive rows, scales with the wall)."""
+def _apply(row: dict, walls: list[float], inputs: list[float], runs: int) -> None:
+    """The row's timing columns from its block means (``us_per_step``, nan for adaptive rows,
+    scales with the wall)."""
     w = float(np.median(walls))
     wi = float(np.median(inputs))
     dur = row["duration"]
     row.update(us_per_step=row["us_per_step"] * w / row["wall"], wall=w, wall_inputs=wi,
                cost=w / dur, rtf=dur / w, rtf_incl_inputs=dur / (w + wi), repeats=len(walls),
-               wall_spread=max(walls) / min(walls))
+               block_runs=runs, wall_spread=max(walls) / min(walls))
+
+
+def _block(row: dict, budget: float, kernel: str, block_wall: float, run) -> tuple | None:
+    """One block of ``row``'s configuration: (mean wall, mean input-sampling wall, runs), or
+    None when a run does not finish as the ladder's run did."""
+    base, _, drag = row["scene"].partition("+")
+    walls: list[float] = []
+    inputs: list[float] = []
+    while not walls or sum(walls) < block_wall:
+        done = run(base, row["n"], row["integrator"], row_setting(row), row["duration"],
+                   budget=budget, drag=drag or None, kernel=kernel)
+        if not done.ok:
+            log(f"retiming {row['scene']} n={row['n']} {row['integrator']}: {done.status}")
+            return None
+        walls.append(done.wall)
+        inputs.append(done.wall_inputs)
+    return float(np.mean(walls)), float(np.mean(inputs)), len(walls)
 
 
 def retime(rows: list[dict], budget: float, kernel: str = "fast", repeats: int = REPEATS,
-           bound: float = ERROR_BOUND, run=simulate) -> int:
-    """Time the :func:`candidates` of ``rows`` again, in place (see the module docstring);
-    ``run`` is :func:`.runs.simulate` (replaceable in tests). A repeat that does not finish
-    as the ladder's run did (over ``budget``) leaves that row's single timing. Returns the
-    number of rows retimed. Rows not retimed get ``repeats`` = 1 and ``wall_spread`` = 1."""
+           bound: float = ERROR_BOUND, run=simulate, block_wall: float = BLOCK_WALL) -> int:
+    """Time the :func:`candidates` of ``rows`` again in ``repeats`` blocks of at least
+    ``block_wall`` [s] each, in place (see the module docstring); ``run`` is
+    :func:`.runs.simulate` (replaceable in tests). A run that does not finish as the ladder's
+    run did (over ``budget``) leaves that row's single timing. ``repeats`` = 1 leaves every row
+    as timed. Returns the number of rows retimed. Rows not retimed get ``repeats`` = 1,
+    ``block_runs`` = 0 and ``wall_spread`` = 1."""
     for r in rows:
         r.setdefault("repeats", 1)
+        r.setdefault("block_runs", 0)
         r.setdefault("wall_spread", 1.0)
-    # per candidate: its row and its timings (wall, inputs); dropped when a repeat fails
-    timed = [(r, [r["wall"]], [r["wall_inputs"]]) for rr in candidates(rows, bound).values()
-             for r in rr]
-    for _ in range(repeats - 1):
+    if repeats <= 1:
+        return 0
+    # per candidate: its row, its block means (wall, inputs) and its runs; dropped when one fails
+    timed = [(r, [], [], [0]) for rr in candidates(rows, bound).values() for r in rr]
+    for _ in range(repeats):
         still = []
-        for r, walls, inputs in timed:
-            base, _, drag = r["scene"].partition("+")
-            done = run(base, r["n"], r["integrator"], row_setting(r), r["duration"],
-                       budget=budget, drag=drag or None, kernel=kernel)
-            if not done.ok:
-                log(f"retiming {r['scene']} n={r['n']} {r['integrator']}: {done.status}")
+        for r, walls, inputs, runs in timed:
+            got = _block(r, budget, kernel, block_wall, run)
+            if got is None:
                 continue
-            walls.append(done.wall)
-            inputs.append(done.wall_inputs)
-            still.append((r, walls, inputs))
+            walls.append(got[0])
+            inputs.append(got[1])
+            runs[0] += got[2]
+            still.append((r, walls, inputs, runs))
         timed = still
-    for r, walls, inputs in timed:
-        _apply(r, walls, inputs)
-    log(f"retimed {len(timed)} runs within {bound:g} m, {repeats} timings each "
-        "(their medians from here on)")
+    for r, walls, inputs, runs in timed:
+        _apply(r, walls, inputs, runs[0])
+    log(f"retimed {len(timed)} runs within {bound:g} m: {repeats} blocks of >= {block_wall:g} s "
+        "each (the medians of their means from here on)")
     return len(timed)
 
 

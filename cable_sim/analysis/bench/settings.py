@@ -31,9 +31,12 @@ OPEN_ENDED_DURATION = 30.0
 ERROR_BOUND = 0.01
 #: Default reference step of the rosenbrock2 reference (large n) [s].
 REF_STEP = 1e-4
-#: Timings of each cheap run within the bound (the work-precision run's included), whose median
-#: is its cost (:mod:`.retime`).
+#: Timed blocks of each cheap run within the bound, the median of whose means is its cost
+#: (:mod:`.retime`).
 REPEATS = 5
+#: A retiming block runs its configuration back to back until their walls add up to this [s]
+#: (:mod:`.retime`).
+BLOCK_WALL = 0.2
 #: A run within the bound is timed again when its single cost is at most this times the
 #: cheapest one's at its (scene, n) (:mod:`.retime`).
 CLOSE = 1.5
