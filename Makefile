@@ -67,8 +67,12 @@ BENCH_ARGS ?= --full --n 40 80 160 320 640 2000 --morison-n 40 80 160 320 640 --
 	--large-n-integrators rk4 rosenbrock2 ros34pw2 ros34pw2_adaptive w6s4os radau_iia \
 	radau_iia_adaptive --mujoco-n 80 \
 	--out results/bench --cache results/bench/cache
+# The node's two targets first (real time wants a machine nothing else loads), then the studies,
+# whose summary reads the two CSVs.
 bench: $(PKG_STAMP)
 	$(PY) -m pip install -q mujoco==4.0.0 moordyn==2.7.2
+	$(PY) -m cable_sim.analysis.realtime_bench --seconds 60 --record --n-links 2000 --tag n2000
+	$(PY) -m cable_sim.analysis.recorder_bench --repeats 8
 	OPENBLAS_NUM_THREADS=1 $(VENV)/bin/cable_sim_bench $(BENCH_ARGS) $(ARGS)
 
 # Node tick jitter in real time (results/realtime/).

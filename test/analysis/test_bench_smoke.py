@@ -3,8 +3,9 @@
 - The quick bench runs every integrator ``make_integrator`` offers, writes the CSVs with the
   expected columns and finite values, the plots, the targets and the summary, and reuses its
   cached references on a second run. The targets are issue #13's, once each, with ``met`` the
-  measured value against the goal (compared here); the two figures of separate commands are read
-  from their CSVs (given here), "not measured in this run" without them.
+  measured value against the goal (compared here); the two figures of their own commands (run
+  first by make bench) are read from their CSVs (given here), "not measured in this run"
+  without them.
 - The bench's compiled timing path reproduces ``Integrator.advance`` exactly (same steps, same
   inputs), so what is timed is what the simulator computes.
 - The MJCF chain reproduces our dense dynamics: generalised accelerations at random states,
@@ -312,7 +313,7 @@ def test_bench_quick(tmp_path, capsys):
     again = _read(tmp_path / "workprecision.csv")
     assert len(again) == len(wp) and {r["source"] for r in again} == {str(first)}
     assert [r["error_m"] for r in again] == [r["error_m"] for r in wp]
-    for r in _read(tmp_path / "targets.csv"):  # the separate commands' CSVs missing
+    for r in _read(tmp_path / "targets.csv"):  # the node commands' CSVs missing
         if r["target"].startswith(("node at n=2000", "recording overhead")):
             assert r["measured"] == "nan" and r["met"] == "False"
             assert "not measured in this run" in r["detail"]

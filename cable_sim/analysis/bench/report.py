@@ -76,8 +76,10 @@ def _targets_section(targets: list[dict], args) -> list[str]:
          "Each target of issue #13 with its measured value and whether it is met (`goal` `reported`: "
          "no goal, met = measured). Issue #5's targets (RTF >= 100 at n = 80, 10x MuJoCo at equal "
          "steps, RTF >= 1 at n = 2000, slope <= 1.3) are superseded by these and no longer listed. "
-         "The node's real-time run and the recording overhead are separate commands: their rows "
-         "are read from those commands' CSVs (`--realtime-csv`, `--recorder-csv`).", "",
+         "The node's real-time run and the recording overhead are their own commands, which "
+         "`make bench` runs first, on a machine not yet loaded by the ladders: their rows are "
+         "read from those commands' CSVs (`--realtime-csv`, `--recorder-csv`; each row says when "
+         "its CSV was written).", "",
          _table(targets, ["target", "measured", "goal", "met", "detail"], digits=4), ""]
     lim = getattr(args, "large_n_from", 10**9)
     if lim < 10**9:

@@ -5,7 +5,8 @@ Each row has ``goal`` ``">= x"``, ``"<= x"`` or ``"reported"`` and ``met`` the c
 targets of issue #5 (RTF >= 100 at n = 80, 10x MuJoCo at equal steps, RTF >= 1 at n = 2000,
 slope <= 1.3) are superseded by these and no longer reported.
 
-Two figures come from separate commands and are read from their CSVs when present: the node's
+Two figures come from their own commands, which ``make bench`` runs before ``cable_sim_bench``,
+and are read from their CSVs when present (each row says when its CSV was written): the node's
 real-time run at n = 2000 (``realtime_bench``) and the recording overhead in fast mode
 (``recorder_bench``).
 
@@ -16,6 +17,7 @@ from __future__ import annotations
 
 import csv
 import math
+from datetime import UTC, datetime
 from pathlib import Path
 
 from .cost import best_under
@@ -188,6 +190,12 @@ def _read_csv(path: Path) -> list[dict]:
         return list(csv.DictReader(f))
 
 
+def _written(path: Path) -> str:
+    """When ``path`` was last written (UTC), so that a reader sees whether it is this run's."""
+    stamp = datetime.fromtimestamp(path.stat().st_mtime, tz=UTC)
+    return stamp.strftime("%Y-%m-%d %H:%M UTC")
+
+
 def realtime_target(path: Path) -> dict:
     """Overruns of the node's real-time run at n = 2000 with recording on (realtime_bench's CSV)."""
     target = "node at n=2000, real time, recording on: overruns over 60 s"
@@ -200,11 +208,11 @@ def realtime_target(path: Path) -> dict:
                     f"not measured in this run (no n=2000 recording row in {path})")
     r = rows[-1]
     secs = float(r["seconds"])
-    detail = (f"from {path} (separate command: python -m cable_sim.analysis.realtime_bench --seconds 60 "
+    detail = (f"from {path}, written {_written(path)} (its own command, which make bench runs "
+              "before cable_sim_bench: python -m cable_sim.analysis.realtime_bench --seconds 60 "
               f"--record --n-links 2000 --tag n2000, the default scene as shipped): {r['scene']}, "
               f"{r['integrator']} h={float(r['step_s']):g} s, {secs:g} s, {r['ticks']} ticks, RTF "
-              f"{float(r['real_time_factor']):.4g}, longest tick {float(r['longest_tick_ms']):.3g} ms; "
-              "not measured in this run")
+              f"{float(r['real_time_factor']):.4g}, longest tick {float(r['longest_tick_ms']):.3g} ms")
     return _row(target, float(r["overruns"]), goal, detail, secs >= 60.0 - 1e-9)
 
 
@@ -221,9 +229,10 @@ def recording_target(path: Path) -> dict:
     spread = (f", median of {r['pairs']} alternated pairs ({float(r['overhead_min']):.3g} .. "
               f"{float(r['overhead_max']):.3g})" if r.get("pairs") else "")
     return _row(target, float(r["overhead"]), goal,
-                f"from {path} (separate command: python -m cable_sim.analysis.recorder_bench "
-                f"--repeats {r.get('pairs') or '?'}): the node in fast mode, steps/s "
-                f"{r.get('mode') or 'record vs no record'}{spread}; not measured in this run")
+                f"from {path}, written {_written(path)} (its own command, which make bench runs "
+                f"before cable_sim_bench: python -m cable_sim.analysis.recorder_bench --repeats "
+                f"{r.get('pairs') or '?'}): the node in fast mode, steps/s "
+                f"{r.get('mode') or 'record vs no record'}{spread}")
 
 
 def peer_target(peer: list[dict]) -> dict:
