@@ -203,11 +203,13 @@ def node_fast_mode(scene: str, n_links: int, seconds: float, record: bool, tmpdi
 
 
 def node_overhead(scene: str, n_links: int, seconds: float, repeats: int, tmpdir: Path) -> list[dict]:
-    """Recording off / on, alternated ``repeats`` times: median rows and the overhead row (median,
-    smallest and largest of the per-pair overheads)."""
+    """Recording off / on in ``repeats`` pairs, the run that goes first alternating between pairs
+    (off, on; on, off; ...: a second run that is slower or faster for having come second, after a
+    node was torn down or a file written, weighs on both sides alike): median rows and the
+    overhead row (median, smallest and largest of the per-pair overheads)."""
     runs: dict[bool, list[dict]] = {False: [], True: []}
-    for _ in range(repeats):
-        for record in (False, True):
+    for k in range(repeats):
+        for record in ((False, True) if k % 2 == 0 else (True, False)):
             runs[record].append(node_fast_mode(scene, n_links, seconds, record, tmpdir))
     rows = []
     for record, rr in runs.items():
