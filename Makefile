@@ -61,7 +61,7 @@ lint: $(PKG_STAMP)
 	$(VENV)/bin/ruff check cable_sim test launch
 
 # Speed against error, issue 13's targets in one invocation (optional MuJoCo and MoorDyn peers:
-# installs the bench extra; 24-41 min on 2-vCPU VMs, README "Speed against error"). ARGS adds
+# installs the bench extra; 24-62 min on 2-vCPU VMs, README "Speed against error"). ARGS adds
 # to it, e.g. ARGS="--resume CSV".
 BENCH_ARGS ?= --full --n 40 80 160 320 640 2000 --morison-n 40 80 160 320 640 --large-n-from 640 \
 	--large-n-integrators rk4 rosenbrock2 ros34pw2 ros34pw2_adaptive w6s4os radau_iia \
