@@ -194,6 +194,9 @@ def test_bench_quick(tmp_path, capsys):
         assert math.isfinite(float(r["step"] if r["kind"] == "fixed" else r["rtol"]))
         if r["kind"] == "fixed":  # mean accepted step of a fixed-step run: its step
             assert abs(float(r["mean_step"]) / float(r["step"]) - 1.0) < 1e-9, r
+    # --quick retimes in blocks of one run each (its runs take well under a millisecond)
+    retimed = [r for r in wp if int(r["repeats"]) > 1]
+    assert retimed and all(int(r["block_runs"]) == int(r["repeats"]) for r in retimed)
     # the compiled adaptive scheme counts its accepted steps: the mean step shrinks with rtol
     for scene in ("paper_free_fall", "paper_anchored_forced"):
         rr = [r for r in wp if r["scene"] == scene and r["integrator"] == "ros34pw2_adaptive"

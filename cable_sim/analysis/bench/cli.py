@@ -25,6 +25,7 @@ from .plan import Plan, PlanError, make_plan
 from .report import make_summary, write_csv
 from .retime import retime
 from .settings import (
+    BLOCK_WALL,
     ERROR_FLOOR,
     FREE_FALL_ONLY_N,
     N_LIST,
@@ -119,6 +120,9 @@ def parse_args(argv=None) -> argparse.Namespace:
                     help="timed blocks of each cheap run within 1 cm (the median of their means is "
                          f"its cost; see cable_sim.analysis.bench.retime; default {REPEATS}, 1: "
                          "single timings)")
+    ap.add_argument("--block-wall", type=float, default=None,
+                    help="wall seconds of back-to-back runs per timed block of the retiming "
+                         f"(default {BLOCK_WALL:g}; --quick 0: one run per block)")
     ap.add_argument("--max-wall", type=float, default=math.inf,
                     help="wall seconds after which the remaining work-precision runs are skipped")
     return ap.parse_args(argv)
@@ -234,7 +238,12 @@ def main(argv=None) -> int:
     wp, refs = run_workprecision(plan)
     write_csv(plan.out / "workprecision.csv", wp)
     wp += morison_step(plan)
-    retime(wp, plan.args.budget, kernel=plan.kernel, repeats=plan.args.repeats)
+    block_wall = plan.args.block_wall
+    if block_wall is None:  # a --quick run's runs take well under a millisecond: one per block
+        block_wall = 0.0 if plan.args.quick else BLOCK_WALL
+    plan.args.block_wall = block_wall  # the summary reports it
+    retime(wp, plan.args.budget, kernel=plan.kernel, repeats=plan.args.repeats,
+           block_wall=block_wall)
     write_csv(plan.out / "workprecision.csv", wp)
     disc = by_scene(plan.scenes, refs)
     write_csv(plan.out / "discretisation.csv", disc)
