@@ -238,12 +238,8 @@ def main(argv=None) -> int:
     wp, refs = run_workprecision(plan)
     write_csv(plan.out / "workprecision.csv", wp)
     wp += morison_step(plan)
-    block_wall = plan.args.block_wall
-    if block_wall is None:  # a --quick run's runs take well under a millisecond: one per block
-        block_wall = 0.0 if plan.args.quick else BLOCK_WALL
-    plan.args.block_wall = block_wall  # the summary reports it
     retime(wp, plan.args.budget, kernel=plan.kernel, repeats=plan.args.repeats,
-           block_wall=block_wall)
+           block_wall=plan.args.block_wall)
     write_csv(plan.out / "workprecision.csv", wp)
     disc = by_scene(plan.scenes, refs)
     write_csv(plan.out / "discretisation.csv", disc)

@@ -19,6 +19,7 @@ from .references import reference
 from .resume import load_resume
 from .runs import Run, available_integrators, pick_kernel
 from .settings import (
+    BLOCK_WALL,
     ERROR_FLOOR,
     FREE_FALL_ONLY_N,
     N_LIST,
@@ -106,7 +107,8 @@ def make_plan(args: argparse.Namespace) -> Plan:
     Raises
     ------
     PlanError
-        When ``--integrators`` names one not available here, or ``--repeats`` is below 1.
+        When ``--integrators`` names one not available here, ``--repeats`` is below 1 or
+        ``--block-wall`` below 0.
     """
     kernel, why = pick_kernel()
     avail = available_integrators()
@@ -119,6 +121,8 @@ def make_plan(args: argparse.Namespace) -> Plan:
         mj_n = args.mujoco_n or [6]
         args.ref_rtol = args.ref_rtol or 1e-12
         args.error_floor = 0.0 if args.error_floor is None else args.error_floor
+        # its runs take well under a millisecond: one run per retiming block
+        args.block_wall = 0.0 if args.block_wall is None else args.block_wall
     else:
         scenes = args.scenes or list(SCENES)
         n_list = args.n or list(N_LIST)
@@ -127,6 +131,9 @@ def make_plan(args: argparse.Namespace) -> Plan:
         mj_n = args.mujoco_n or [20, 80, 160]
     if args.repeats < 1:
         raise PlanError(f"parameter 'repeats' = {args.repeats}; allowed: an integer >= 1")
+    args.block_wall = BLOCK_WALL if args.block_wall is None else args.block_wall
+    if not args.block_wall >= 0.0:
+        raise PlanError(f"parameter 'block_wall' = {args.block_wall}; allowed: seconds >= 0")
     integs = args.integrators or avail
     bad = [i for i in integs if i not in avail]
     if bad:

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .settings import BLOCK_WALL, CLOSE
+from .settings import CLOSE
 
 
 def write_csv(path: Path, rows: list[dict]) -> None:
@@ -42,12 +42,6 @@ def _table(rows: list[dict], keys: list[str], digits: int = 3) -> str:
     return "\n".join(lines)
 
 
-def _block_wall(args) -> float:
-    """The retiming's block wall [s] of this invocation (``--block-wall``, resolved by the CLI)."""
-    got = getattr(args, "block_wall", None)
-    return BLOCK_WALL if got is None else float(got)
-
-
 def _header(argv, kernel, why, integs, args, wp, elapsed) -> list[str]:
     cpu = platform.processor() or platform.machine()
     durs = sorted({(r["scene"], r["duration"]) for r in wp})
@@ -69,7 +63,7 @@ def _header(argv, kernel, why, integs, args, wp, elapsed) -> list[str]:
         "single timing moves by tens of per cent with the machine's load, so every run within 1 cm "
         f"whose timing is within {CLOSE:g}x of the cheapest at its (scene, n) is timed again "
         f"in {args.repeats} blocks (round robin), each running it back to back until the runs' "
-        f"walls add up to {_block_wall(args):g} s (at least one run), and its cost is the median "
+        f"walls add up to {args.block_wall:g} s (at least one run), and its cost is the median "
         "of the block means "
         "(columns `repeats` = blocks, `block_runs` = runs in all, `wall_spread` = largest / "
         "smallest block mean; `retime.py`): the cost per n, the slopes and the per-n targets "
