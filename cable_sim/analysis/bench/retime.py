@@ -51,18 +51,20 @@ def candidates(rows: list[dict], bound: float = ERROR_BOUND, close: float = CLOS
     return out
 
 
-def _apply(row: dict, walls: list[float], inputs: list[float], runs: int) -> None:
-    """The row's timing columns from its block means (``us_per_step``, nan for adaptive rows,
-    scales with the wall)."""
+def _apply(row: dict, blocks: list[tuple[float, float, int]]) -> None:
+    """The row's timing columns from its blocks, (mean wall, mean input-sampling wall, runs)
+    each (``us_per_step``, nan for adaptive rows, scales with the wall)."""
+    walls = [b[0] for b in blocks]
     w = float(np.median(walls))
-    wi = float(np.median(inputs))
+    wi = float(np.median([b[1] for b in blocks]))
     dur = row["duration"]
     row.update(us_per_step=row["us_per_step"] * w / row["wall"], wall=w, wall_inputs=wi,
-               cost=w / dur, rtf=dur / w, rtf_incl_inputs=dur / (w + wi), repeats=len(walls),
-               block_runs=runs, wall_spread=max(walls) / min(walls))
+               cost=w / dur, rtf=dur / w, rtf_incl_inputs=dur / (w + wi), repeats=len(blocks),
+               block_runs=sum(b[2] for b in blocks), wall_spread=max(walls) / min(walls))
 
 
-def _block(row: dict, budget: float, kernel: str, block_wall: float, run) -> tuple | None:
+def _block(row: dict, budget: float, kernel: str, block_wall: float,
+           run) -> tuple[float, float, int] | None:
     """One block of ``row``'s configuration: (mean wall, mean input-sampling wall, runs), or
     None when a run does not finish as the ladder's run did."""
     base, _, drag = row["scene"].partition("+")
@@ -93,21 +95,18 @@ def retime(rows: list[dict], budget: float, kernel: str = "fast", repeats: int =
         r.setdefault("wall_spread", 1.0)
     if repeats <= 1:
         return 0
-    # per candidate: its row, its block means (wall, inputs) and its runs; dropped when one fails
-    timed = [(r, [], [], [0]) for rr in candidates(rows, bound).values() for r in rr]
+    # per candidate: its row and its blocks so far; dropped when a run fails
+    timed = [(r, []) for rr in candidates(rows, bound).values() for r in rr]
     for _ in range(repeats):
         still = []
-        for r, walls, inputs, runs in timed:
+        for r, blocks in timed:
             got = _block(r, budget, kernel, block_wall, run)
-            if got is None:
-                continue
-            walls.append(got[0])
-            inputs.append(got[1])
-            runs[0] += got[2]
-            still.append((r, walls, inputs, runs))
+            if got is not None:
+                blocks.append(got)
+                still.append((r, blocks))
         timed = still
-    for r, walls, inputs, runs in timed:
-        _apply(r, walls, inputs, runs[0])
+    for r, blocks in timed:
+        _apply(r, blocks)
     log(f"retimed {len(timed)} runs within {bound:g} m: {repeats} blocks of >= {block_wall:g} s "
         "each (the medians of their means from here on)")
     return len(timed)
