@@ -128,6 +128,39 @@ def test_release_is_halved_and_stays_accurate() -> None:
     assert err < 1e-5
 
 
+def test_a_run_split_into_calls_takes_the_steps_of_one_call() -> None:
+    """The node calls the compiled stepper once per step. Each call continues the last one's
+    Newton state when it starts from that call's final state (the first guess extrapolated
+    from the previous step, its contraction estimate), so 25 single-step calls take the steps
+    of one 25-step call: the same Newton iterations and halved attempts, the same state. The
+    n = 80 free fall from its release at h = 0.1 s, whose first steps are halved; without
+    inputs, so the two runs sample identical (zero) inputs. A call from any other state starts
+    afresh, as a new integrator does."""
+    scene, model, y0 = _free_fall(80)
+    h, k = 0.1, 25
+    one = make_integrator("radau_iia", scene.system(model=model), h)
+    y_one = one.advance(0.0, y0, k * h)
+    split = make_integrator("radau_iia", scene.system(model=model), h)
+    assert one.compiled and split.compiled
+    y = y0
+    for i in range(k):
+        y = split.step(i * h, y, h)
+    print(f"\n{k} steps of {h} s: {one.newton_iterations} iterations, {one.newton_failures} "
+          f"halved in one call; {split.newton_iterations}, {split.newton_failures} in {k} calls")
+    assert one.newton_failures > 0  # the release is halved: the carried state crosses halvings
+    assert (split.newton_iterations, split.newton_failures) == (one.newton_iterations,
+                                                               one.newton_failures)
+    scale = float(np.max(np.abs(y_one)))
+    assert np.max(np.abs(y - y_one)) <= 1e-12 * scale
+    # from another state (back at the release): a fresh start, the iterations of a new integrator
+    fresh = make_integrator("radau_iia", scene.system(model=model), h)
+    y_fresh = fresh.step(0.0, y0, h)
+    its = split.newton_iterations
+    y_again = split.step(0.0, y0, h)
+    assert split.newton_iterations - its == fresh.newton_iterations
+    assert np.max(np.abs(y_again - y_fresh)) <= 1e-12 * scale
+
+
 @pytest.mark.parametrize("compiled", [True, False])
 def test_no_convergence_fails_loudly(compiled: bool) -> None:
     scene, model, y0 = _free_fall(8)

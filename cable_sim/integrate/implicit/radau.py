@@ -53,6 +53,7 @@ from cable_sim.integrate.implicit.radau_step import (
     STATUS_NEWTON,
     _radau_fixed_run,
     newton_verdict,
+    radau_workspace,
 )
 from cable_sim.integrate.step_control import err_norm
 
@@ -261,13 +262,31 @@ class RadauIIA(Integrator):
     def _fast_kernel(self, arr, par, h, u, eta, y, chk, info) -> int:
         ext = np.zeros(5)  # info and the Newton counters (see _radau_fixed_run)
         ext[:3] = info[:3]
+        ws, carry = self._continuation(arr, h, y)
         status = _radau_fixed_run(arr, par, self.geometric, self.predict, h, u, eta, y, chk, ext,
                                   LAM1, LAM2, TI1, TI2, V1, V2, OFFSETS, self.newton_tol,
-                                  self.newton_maxit)
+                                  self.newton_maxit, ws, carry)
+        # the next call continues this one only from its final state, bit for bit
+        self._carried = (arr, h, ws, carry, y.copy()) if status == 0 else None
         info[:3] = ext[:3]
         self.newton_iterations += int(ext[3])
         self.newton_failures += int(ext[4])
         return status
+
+    def _continuation(self, arr: np.ndarray, h: float, y: np.ndarray) -> tuple[tuple, np.ndarray]:
+        """The workspace and ``[hprev, eta]`` for a compiled run from y (see
+        :func:`~cable_sim.integrate.implicit.radau_step._radau_fixed_run`): the last run's, when
+        this one continues it (the same packed model, h to 1e-9 relative, y its final state bit
+        for bit), so
+        that a run split into calls (the node's one step per call) takes the steps of one call:
+        the first guess extrapolated from the previous step, its contraction estimate; else
+        fresh ones (explicit Euler guess)."""
+        last = getattr(self, "_carried", None)
+        self._carried = None
+        if (last is not None and last[0] is arr and abs(last[1] - h) <= 1e-9 * h
+                and np.array_equal(last[4], y)):
+            return last[2], last[3]
+        return radau_workspace(arr.shape[1]), np.array([0.0, 1.0])
 
     def _step(self, t: float, y: np.ndarray, h: float) -> np.ndarray:
         """One step of h: halves (recursively, down to h / 2^MAX_HALVINGS) where the stage

@@ -33,7 +33,9 @@ fixed-step run then redoes the step as two halves (each factored with its own h,
 drag is linearised at ``v + h_sub a``), down to ``h / 2^MAX_HALVINGS``; the halves' inputs come
 from the cubic through the step's four input samples (at 0, c_1, c_2, 1). The first guess of
 the stage increments extrapolates the previous step's collocation polynomial (the explicit
-Euler increments after a failed attempt and at the start of a run).
+Euler increments after a failed attempt and at the start of a run; a call that continues
+the previous call's run, from its final state, continues its guess and contraction estimate:
+:func:`_radau_fixed_run`'s ``ws`` and ``carry``).
 
 Integrate layer: imports numba, numpy, :mod:`cable_sim.core.kernel` (checks, forward, forward3,
 links) and the sibling modules ``op_factor``, ``op_product``, ``op_solve``, ``run``.
@@ -423,25 +425,32 @@ def _radau_fixed_run(arr: np.ndarray, par: np.ndarray, geometric: bool, predict:
                      u: np.ndarray, eta: np.ndarray, y: np.ndarray, chk: np.ndarray,
                      info: np.ndarray, lam1: float, lam2: complex, ti1: np.ndarray,
                      ti2: np.ndarray, v1: np.ndarray, v2: np.ndarray, offsets: np.ndarray,
-                     tol: float, maxit: int) -> int:
+                     tol: float, maxit: int, ws: tuple, carry: np.ndarray) -> int:
     """``u.shape[0]`` checked steps of h, in place on y (``u[k], eta[k]``: the inputs at
     ``offsets`` = (0, c_1, c_2, 1) of step k). A step whose Newton iteration fails is redone
     in halves (see the module docstring); the check runs at the end of each step of h. On
     failure ``y`` keeps the last good state, ``info[1]`` is the failed step's index;
     ``STATUS_NEWTON`` with the smallest substep tried in ``info[2]``. ``info`` has five entries:
     ``info[0]`` counts the force evaluations, ``info[3]`` the Newton iterations and ``info[4]``
-    the failed attempts."""
+    the failed attempts.
+
+    ``ws`` (:func:`radau_workspace` for n links) and ``carry`` (``[hprev, eta]``) are what one
+    step hands the next, updated in place: ``hprev`` the last accepted (sub)step, whose stage
+    increments, last stage slope and end state's link cos/sin are in ``ws`` (0: none; the
+    first guess is then the explicit Euler increments), ``eta`` the Newton contraction
+    estimate (1 to start). A caller whose next call continues from this call's final y (bit
+    for bit, same h) passes both back unchanged, so that a run split into calls takes the
+    same steps as one call; otherwise a fresh workspace and ``[0, 1]``."""
     n = arr.shape[1]
     n1 = n + 1
-    ws = radau_workspace(n)
     cth, sth = fd_trig(ws[0][0], n)
     full = 1 << MAX_HALVINGS  # a step of h in units of its smallest substep
     ys = np.empty(2 * n1)
     yn = np.empty(2 * n1)
     us = np.empty(4)
     es = np.empty(4)
-    hprev = 0.0  # the last accepted (sub)step, whose stages are in ws; 0: none usable
-    newton = np.ones(1)  # the contraction estimate eta carried from step to step
+    hprev = carry[0]  # the last accepted (sub)step, whose stages are in ws; 0: none usable
+    newton = carry[1:2]  # the contraction estimate eta carried from step to step (a view)
     for k in range(u.shape[0]):
         info[1] = k
         for j in range(2 * n1):
@@ -466,6 +475,7 @@ def _radau_fixed_run(arr: np.ndarray, par: np.ndarray, geometric: bool, predict:
                               ti1, ti2, v1, v2, offsets, tol, maxit, info, ratio, newton,
                               hprev > 0.0)
             if res == _STEP_SINGULAR:
+                carry[0] = 0.0
                 return STATUS_SINGULAR
             if res == _STEP_OK:
                 for j in range(2 * n1):
@@ -478,14 +488,17 @@ def _radau_fixed_run(arr: np.ndarray, par: np.ndarray, geometric: bool, predict:
                 hprev = 0.0  # the failed attempt overwrote the stages
                 if size == 1:
                     info[2] = hs
+                    carry[0] = 0.0
                     return STATUS_NEWTON
                 size //= 2
         if par[10] == 0.0:  # (anchored: the check's projection recomputes them)
             link_trig(ys, cth, sth)
         status = check_packed_ws(arr, par, ys, chk, info, cth, sth)
         if status != STATUS_OK:
+            carry[0] = 0.0
             return status
         y[:] = ys
+    carry[0] = hprev
     return STATUS_OK
 
 
