@@ -280,7 +280,10 @@ class RadauIIA(Integrator):
         for bit), so
         that a run split into calls (the node's one step per call) takes the steps of one call:
         the first guess extrapolated from the previous step, its contraction estimate; else
-        fresh ones (explicit Euler guess)."""
+        fresh ones (explicit Euler guess). As within one call, the first step's iteration matrix
+        then uses the previous step's last stage slope for the accelerations at y: an input
+        that jumps between two calls (a held topic value) changes that linearisation and the
+        first guess only, not what the Newton iteration converges to."""
         last = getattr(self, "_carried", None)
         self._carried = None
         if (last is not None and last[0] is arr and abs(last[1] - h) <= 1e-9 * h
