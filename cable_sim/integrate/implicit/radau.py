@@ -245,6 +245,9 @@ class RadauIIA(Integrator):
         self.newton_iterations = 0
         self.newton_failures = 0
         self._newton = np.ones(1)  # the Python path's contraction estimate (see radau_step)
+        #: The last compiled run's ``(arr, h, workspace, [hprev, eta], final y)`` while the next
+        #: call may continue it (:meth:`_continuation`); None after a failed run.
+        self._carried: tuple | None = None
         self.geometric = bool(geometric_stiffness)
         self.predict = bool(predict_drag)
         super().__init__(system, step=step, **kwargs)
@@ -277,15 +280,13 @@ class RadauIIA(Integrator):
         """The workspace and ``[hprev, eta]`` for a compiled run from y (see
         :func:`~cable_sim.integrate.implicit.radau_step._radau_fixed_run`): the last run's, when
         this one continues it (the same packed model, h to 1e-9 relative, y its final state bit
-        for bit), so
-        that a run split into calls (the node's one step per call) takes the steps of one call:
-        the first guess extrapolated from the previous step, its contraction estimate; else
-        fresh ones (explicit Euler guess). As within one call, the first step's iteration matrix
-        then uses the previous step's last stage slope for the accelerations at y: an input
-        that jumps between two calls (a held topic value) changes that linearisation and the
-        first guess only, not what the Newton iteration converges to."""
-        last = getattr(self, "_carried", None)
-        self._carried = None
+        for bit), so that a run split into calls (the node's one step per call) takes the steps
+        of one call: the first guess extrapolated from the previous step, its contraction
+        estimate; else fresh ones (explicit Euler guess). As within one call, the first step's
+        iteration matrix then uses the previous step's last stage slope for the accelerations
+        at y: an input that jumps between two calls (a held topic value) changes that
+        linearisation and the first guess only, not what the Newton iteration converges to."""
+        last, self._carried = self._carried, None
         if (last is not None and last[0] is arr and abs(last[1] - h) <= 1e-9 * h
                 and np.array_equal(last[4], y)):
             return last[2], last[3]
